@@ -1,0 +1,82 @@
+// IEEE Std 952/647 gyro noise model: sigma^2(tau) = 3Q^2/tau^2 + N^2/tau + (2 ln2/pi) B^2 + K^2 tau/3 + R^2 tau^2/2,
+// fitted to an Allan variance curve by EDF-weighted, iterated, non-negative least squares (plus optional extra terms).
+#pragma once
+
+#include <array>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "gyro_allan/allan.hpp"
+
+namespace gyro_allan {
+
+/// The five IEEE 952 terms, in the order of NoiseCoefficients::terms.
+enum NoiseTerm { kQuantization = 0, kAngleRandomWalk, kBiasInstability, kRateRandomWalk, kRateRamp, kNumTerms };
+
+/// report.yaml keys of the terms: quantization, angle_random_walk, bias_instability, rate_random_walk, rate_ramp.
+const char* noiseTermKey(int term);
+/// SI unit of each term: rad, rad/sqrt(s), rad/s, rad/s/sqrt(s), rad/s^2 (for a gyro).
+const char* noiseTermUnit(int term);
+
+/// Allan-variance basis of each term per unit coefficient squared: 3/tau^2, 1/tau, 2ln2/pi, tau/3, tau^2/2.
+double noiseTermBasis(int term, double tau);
+
+/// A coefficient with its 1-sigma uncertainty. supported == false: the data does not support the term; value is 0
+/// and sigma is the 1-sigma upper bound of the coefficient (what it could be and still fit).
+struct Coefficient {
+  double value = 0;
+  double sigma = 0;
+  bool supported = false;
+};
+
+/// An additional Allan-variance term c * basis(tau), c >= 0 fitted jointly with the IEEE terms (used by the model
+/// check: sinusoid, Gauss-Markov, bias step...). The reported Coefficient is sqrt(c) with its sigma.
+struct ExtraTerm {
+  std::string name;
+  std::function<double(double tau)> basis;
+};
+
+struct FitOptions {
+  std::array<bool, kNumTerms> enabled{{true, true, true, true, true}};
+  int iterations = 6;          ///< reweighting iterations (weights from the current model)
+  double min_edf = 1.0;        ///< points with smaller EDF are not fitted
+  double rms_min_edf = 30.0;   ///< points counted in rms_log10 need at least this EDF
+};
+
+struct FitResult {
+  bool ok = false;
+  std::string message;                        ///< why not ok
+  std::array<Coefficient, kNumTerms> terms;   ///< Q [rad], N [rad/sqrt(s)], B [rad/s], K [rad/s/sqrt(s)], R [rad/s^2]
+  std::vector<Coefficient> extra;             ///< one per ExtraTerm, sqrt of its fitted c
+  std::vector<double> extra_c;                ///< fitted c of each extra term
+  std::vector<double> tau;                    ///< taus of the curve points (all of them)
+  std::vector<double> model_var;              ///< model AVAR at each curve point
+  std::vector<bool> used;                     ///< point took part in the fit
+  double chi2 = 0;                            ///< EDF-weighted chi-squared of the AVAR residual
+  int dof = 0;                                ///< fitted points minus free parameters (>= 1)
+  double chi2_dof = 0;                        ///< chi2 / dof
+  double rms_log10 = 0;                       ///< RMS of log10(measured/model ADEV) over points with edf >= rms_min_edf
+  int n_rms = 0;                              ///< points in rms_log10
+};
+
+/// Fits the model to `curve` (AVAR in curve.points[i].var; weights from points[i].edf; edf <= 0 is treated as
+/// the non-overlapping count N/m - 1). Iterated: the variance of each AVAR estimate is 2 model^2 / edf.
+FitResult fitNoiseModel(const DeviationCurve& curve, const FitOptions& options = {},
+                        const std::vector<ExtraTerm>& extra = {});
+
+/// Model AVAR of a fit (IEEE terms + extra terms) at tau.
+double modelVariance(const FitResult& fit, double tau, const std::vector<ExtraTerm>& extra = {});
+/// One IEEE term's AVAR contribution at tau.
+double termVariance(const FitResult& fit, int term, double tau);
+
+/// Goodness-of-fit measures of any model curve against measured points (same definitions as FitResult).
+struct FitError {
+  double rms_log10 = 0;
+  double chi2_dof = 0;
+  int n_rms = 0;
+};
+FitError fitError(const DeviationCurve& curve, const std::vector<double>& model_var, const std::vector<bool>& used,
+                  int n_params, double rms_min_edf = 30.0);
+
+}  // namespace gyro_allan
