@@ -67,6 +67,17 @@ DeviationCurve computeDeviation(const std::string& name, const std::vector<doubl
 DeviationCurve computeDeviation(const std::string& name, const std::vector<std::vector<double>>& segments,
                                 InputKind kind, double tau0, const DeviationOptions& options);
 
+/// Same as computeDeviation, at the given averaging factors m instead of a grid (factors with no terms are omitted).
+DeviationCurve computeDeviationAt(const std::string& name, const std::vector<double>& samples, InputKind kind,
+                                  double tau0, const std::vector<int64_t>& factors, const DeviationOptions& options);
+DeviationCurve computeDeviationAt(const std::string& name, const std::vector<std::vector<double>>& segments,
+                                  InputKind kind, double tau0, const std::vector<int64_t>& factors,
+                                  const DeviationOptions& options);
+
+/// Largest averaging factor with at least one term for deviation `name` on n_phase phase points
+/// (adev/oadev (n-1)/2, hdev/ohdev (n-1)/3, mdev/tdev n/3, totdev n-1).
+int64_t deviationMaxFactor(const std::string& name, int64_t n_phase);
+
 /// Shorthand for the overlapping Allan deviation of rate samples.
 DeviationCurve oadev(const std::vector<double>& rate, double tau0, const DeviationOptions& options = {});
 

@@ -1,0 +1,392 @@
+// Allan-family deviations (adev, oadev, mdev, hdev, ohdev, tdev, totdev) on tau grids, pooled over gap-free segments.
+#include "gyro_allan/allan.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <sstream>
+#include <stdexcept>
+
+#include "allan_internal.hpp"
+
+namespace gyro_allan {
+
+// ------------------------------------------------------------------------------------------------ tau grids
+bool parseTauGrid(const std::string& text, TauGrid* grid, std::string* error) {
+  auto fail = [&](const std::string& msg) {
+    if (error) *error = msg;
+    return false;
+  };
+  if (!grid) return fail("parseTauGrid: null grid");
+  TauGrid g;
+  if (text == "octave") {
+    g.kind = TauGridKind::Octave;
+  } else if (text == "decade") {
+    g.kind = TauGridKind::Decade;
+  } else if (text == "all") {
+    g.kind = TauGridKind::All;
+  } else if (text == "log") {
+    g.kind = TauGridKind::Log;
+    g.per_decade = 10;
+  } else if (text.rfind("log:", 0) == 0) {
+    const std::string num = text.substr(4);
+    if (num.empty() || num.size() > 6 || num.find_first_not_of("0123456789") != std::string::npos)
+      return fail("tau grid '" + text + "': expected log:K with K a positive integer");
+    const int k = std::stoi(num);
+    if (k < 1 || k > 100000) return fail("tau grid '" + text + "': points per decade must be in 1..100000");
+    g.kind = TauGridKind::Log;
+    g.per_decade = k;
+  } else {
+    return fail("unknown tau grid '" + text + "' (expected octave, decade, all, log or log:K)");
+  }
+  *grid = g;
+  return true;
+}
+
+std::string tauGridName(const TauGrid& grid) {
+  switch (grid.kind) {
+    case TauGridKind::Octave: return "octave";
+    case TauGridKind::Decade: return "decade";
+    case TauGridKind::All: return "all";
+    case TauGridKind::Log: return "log:" + std::to_string(grid.per_decade);
+  }
+  return "log:" + std::to_string(grid.per_decade);
+}
+
+std::vector<int64_t> tauGridFactors(const TauGrid& grid, int64_t max_m) {
+  std::vector<int64_t> ms;
+  if (max_m < 1) return ms;
+  switch (grid.kind) {
+    case TauGridKind::Octave:
+      for (int64_t m = 1; m <= max_m; m *= 2) {
+        ms.push_back(m);
+        if (m > max_m / 2) break;
+      }
+      break;
+    case TauGridKind::Decade:
+      for (int64_t dec = 1; dec <= max_m; dec *= 10) {
+        for (int64_t f : {1, 2, 4})
+          if (f * dec <= max_m) ms.push_back(f * dec);
+        if (dec > max_m / 10) break;
+      }
+      break;
+    case TauGridKind::All:
+      ms.reserve(static_cast<size_t>(max_m));
+      for (int64_t m = 1; m <= max_m; ++m) ms.push_back(m);
+      break;
+    case TauGridKind::Log: {
+      if (grid.per_decade < 1) throw std::invalid_argument("tau grid: log per_decade must be >= 1");
+      const double top = std::log10(static_cast<double>(max_m));
+      for (int64_t k = 0;; ++k) {
+        const double e = static_cast<double>(k) / grid.per_decade;
+        if (e > top + 1e-12) break;
+        const int64_t m = std::llround(std::pow(10.0, e));
+        if (m > max_m) break;
+        if (ms.empty() || m > ms.back()) ms.push_back(m);
+      }
+      break;
+    }
+  }
+  return ms;
+}
+
+// ------------------------------------------------------------------------------------------------ phase
+std::vector<double> rateToAngle(const std::vector<double>& rate, double tau0) {
+  if (!(tau0 > 0) || !std::isfinite(tau0)) throw std::invalid_argument("rateToAngle: tau0 must be finite and > 0");
+  std::vector<double> x(rate.size() + 1, 0.0);
+  if (rate.empty()) return x;
+  long double mean = 0;
+  for (size_t i = 0; i < rate.size(); ++i) {
+    if (!std::isfinite(rate[i])) throw std::invalid_argument("rateToAngle: non-finite rate sample at index " + std::to_string(i));
+    mean += rate[i];
+  }
+  mean /= static_cast<long double>(rate.size());
+  // second pass corrects the mean for the rounding of the first (compensated mean)
+  long double corr = 0;
+  for (double v : rate) corr += static_cast<long double>(v) - mean;
+  mean += corr / static_cast<long double>(rate.size());
+  long double acc = 0;
+  const long double t0 = tau0;
+  for (size_t i = 0; i < rate.size(); ++i) {
+    acc += (static_cast<long double>(rate[i]) - mean) * t0;
+    x[i + 1] = static_cast<double>(acc);
+  }
+  return x;
+}
+
+// ------------------------------------------------------------------------------------------------ sums
+namespace {
+
+/// Accumulates squares in double blocks of 1024 (vectorisable), blocks summed in long double.
+struct SquareAccumulator {
+  long double total = 0;
+  double block = 0;
+  int count = 0;
+  inline void add(double v) {
+    block += v * v;
+    if (++count == 1024) flush();
+  }
+  inline void flush() {
+    total += block;
+    block = 0;
+    count = 0;
+  }
+  long double value() {
+    flush();
+    return total;
+  }
+};
+
+void sumsAdev(const double* x, int64_t n, int64_t m, bool overlapping, SegmentSums* s) {
+  const int64_t stride = overlapping ? 1 : m;
+  if (n < 2 * m + 1) return;
+  SquareAccumulator acc;
+  int64_t terms = 0;
+  for (int64_t i = 0; i + 2 * m < n; i += stride) {
+    acc.add(x[i + 2 * m] - 2.0 * x[i + m] + x[i]);
+    ++terms;
+  }
+  s->sumsq += acc.value();
+  s->terms += terms;
+}
+
+void sumsHdev(const double* x, int64_t n, int64_t m, bool overlapping, SegmentSums* s) {
+  const int64_t stride = overlapping ? 1 : m;
+  if (n < 3 * m + 1) return;
+  SquareAccumulator acc;
+  int64_t terms = 0;
+  for (int64_t i = 0; i + 3 * m < n; i += stride) {
+    acc.add(x[i + 3 * m] - 3.0 * x[i + 2 * m] + 3.0 * x[i + m] - x[i]);
+    ++terms;
+  }
+  s->sumsq += acc.value();
+  s->terms += terms;
+}
+
+/// Modified Allan: terms j = 0..n-3m, each the sum over i=j..j+m-1 of second differences at spacing m. The window
+/// sum is updated in long double and recomputed from scratch every max(m, 4096) steps to bound drift.
+void sumsMdev(const double* x, int64_t n, int64_t m, SegmentSums* s) {
+  if (n < 3 * m) return;
+  const int64_t nterms = n - 3 * m + 1;
+  auto d2 = [&](int64_t i) -> long double {
+    return static_cast<long double>(x[i + 2 * m]) - 2.0L * x[i + m] + static_cast<long double>(x[i]);
+  };
+  const int64_t refresh = std::max<int64_t>(m, 4096);
+  long double win = 0;
+  long double total = 0;
+  for (int64_t j = 0; j < nterms; ++j) {
+    if (j % refresh == 0) {
+      win = 0;
+      for (int64_t i = j; i < j + m; ++i) win += d2(i);
+    } else {
+      win += d2(j + m - 1) - d2(j - 1);
+    }
+    total += win * win;
+  }
+  s->sumsq += total;
+  s->terms += nterms;
+}
+
+/// Total variance (SP1065 eq. 25): phase extended by reflection at both ends, x*(1-j) = 2x(1) - x(1+j),
+/// x*(N+j) = 2x(N) - x(N-j), j = 1..N-2; sum over i = 2..N-1 (1-based) of second differences at spacing m.
+void sumsTotdev(const double* x, int64_t n, int64_t m, SegmentSums* s) {
+  if (n < 3 || m > n - 1) return;
+  // ext[k] holds x* at 1-based index k - (n-2) + 1 ... use offset: ext index e = i0 + (n - 2), i0 = 0-based index
+  const int64_t off = n - 2;
+  std::vector<double> ext(static_cast<size_t>(3 * n - 4));
+  for (int64_t i0 = -(n - 2); i0 < 2 * n - 2; ++i0) {
+    double v;
+    if (i0 < 0) v = 2.0 * x[0] - x[-i0];
+    else if (i0 < n) v = x[i0];
+    else v = 2.0 * x[n - 1] - x[2 * (n - 1) - i0];
+    ext[static_cast<size_t>(i0 + off)] = v;
+  }
+  SquareAccumulator acc;
+  for (int64_t i0 = 1; i0 <= n - 2; ++i0) {
+    const double* e = ext.data() + off;
+    acc.add(e[i0 - m] - 2.0 * e[i0] + e[i0 + m]);
+  }
+  s->sumsq += acc.value();
+  s->terms += n - 2;
+}
+
+}  // namespace
+
+DevKind devKindFromName(const std::string& name) {
+  if (name == "adev") return DevKind::Adev;
+  if (name == "oadev") return DevKind::Oadev;
+  if (name == "mdev") return DevKind::Mdev;
+  if (name == "tdev") return DevKind::Tdev;
+  if (name == "hdev") return DevKind::Hdev;
+  if (name == "ohdev") return DevKind::Ohdev;
+  if (name == "totdev") return DevKind::Totdev;
+  throw std::invalid_argument("unknown deviation '" + name + "' (expected adev, oadev, mdev, tdev, hdev, ohdev, totdev)");
+}
+
+int64_t deviationMaxFactor(DevKind kind, int64_t n_phase) {
+  switch (kind) {
+    case DevKind::Adev:
+    case DevKind::Oadev: return (n_phase - 1) / 2;
+    case DevKind::Hdev:
+    case DevKind::Ohdev: return (n_phase - 1) / 3;
+    case DevKind::Mdev:
+    case DevKind::Tdev: return n_phase / 3;
+    case DevKind::Totdev: return n_phase - 1;
+  }
+  return 0;
+}
+
+void accumulateSegment(DevKind kind, const double* x, int64_t n, int64_t m, SegmentSums* s) {
+  switch (kind) {
+    case DevKind::Adev: sumsAdev(x, n, m, false, s); break;
+    case DevKind::Oadev: sumsAdev(x, n, m, true, s); break;
+    case DevKind::Hdev: sumsHdev(x, n, m, false, s); break;
+    case DevKind::Ohdev: sumsHdev(x, n, m, true, s); break;
+    case DevKind::Mdev:
+    case DevKind::Tdev: sumsMdev(x, n, m, s); break;
+    case DevKind::Totdev: sumsTotdev(x, n, m, s); break;
+  }
+}
+
+double varianceFromSums(DevKind kind, const SegmentSums& s, int64_t m, double tau0) {
+  if (s.terms <= 0) return 0;
+  const long double tau = static_cast<long double>(m) * tau0;
+  const long double mean_sq = s.sumsq / static_cast<long double>(s.terms);
+  switch (kind) {
+    case DevKind::Adev:
+    case DevKind::Oadev:
+    case DevKind::Totdev: return static_cast<double>(mean_sq / (2.0L * tau * tau));
+    case DevKind::Hdev:
+    case DevKind::Ohdev: return static_cast<double>(mean_sq / (6.0L * tau * tau));
+    case DevKind::Mdev: return static_cast<double>(mean_sq / (2.0L * m * m * tau * tau));
+    case DevKind::Tdev: return static_cast<double>(mean_sq / (6.0L * m * m));
+  }
+  return 0;
+}
+
+const std::vector<std::string>& deviationNames() {
+  static const std::vector<std::string> names = {"adev", "oadev", "mdev", "tdev", "hdev", "ohdev", "totdev"};
+  return names;
+}
+
+bool isDeviationName(const std::string& name) {
+  const auto& n = deviationNames();
+  return std::find(n.begin(), n.end(), name) != n.end();
+}
+
+namespace {
+
+void checkFinite(const std::vector<double>& seg, size_t k) {
+  for (size_t i = 0; i < seg.size(); ++i)
+    if (!std::isfinite(seg[i]))
+      throw std::invalid_argument("computeDeviation: non-finite sample at index " + std::to_string(i) +
+                                  " of segment " + std::to_string(k));
+}
+
+/// Phase views of the segments: angle input is used in place, rate input is integrated into `storage`.
+std::vector<PhaseSpan> toPhaseSpans(const std::vector<const std::vector<double>*>& segments, InputKind kind,
+                                    double tau0, std::vector<std::vector<double>>* storage) {
+  std::vector<PhaseSpan> spans;
+  storage->reserve(segments.size());
+  for (size_t k = 0; k < segments.size(); ++k) {
+    const auto& seg = *segments[k];
+    checkFinite(seg, k);
+    if (seg.empty()) continue;
+    if (kind == InputKind::Rate) {
+      storage->push_back(rateToAngle(seg, tau0));
+      spans.push_back({storage->back().data(), static_cast<int64_t>(storage->back().size())});
+    } else {
+      spans.push_back({seg.data(), static_cast<int64_t>(seg.size())});
+    }
+  }
+  return spans;
+}
+
+DeviationCurve computeOnSpans(DevKind dk, const std::string& name, const std::vector<PhaseSpan>& phases, double tau0,
+                              const std::vector<int64_t>& factors, const DeviationOptions& options) {
+  DeviationCurve curve;
+  curve.name = name;
+  curve.tau0 = tau0;
+  for (const auto& p : phases) curve.n_phase += p.n > 1 ? p.n : 0;
+  for (int64_t m : factors) {
+    if (m < 1) throw std::invalid_argument("computeDeviation: averaging factor must be >= 1");
+    SegmentSums s;
+    for (const auto& p : phases) {
+      if (p.n < 2 || m > deviationMaxFactor(dk, p.n)) continue;
+      accumulateSegment(dk, p.x, p.n, m, &s);
+    }
+    if (s.terms <= 0) continue;
+    DeviationPoint pt;
+    pt.m = m;
+    pt.tau = static_cast<double>(m) * tau0;
+    pt.n_terms = s.terms;
+    pt.var = varianceFromSums(dk, s, m, tau0);
+    pt.dev = std::sqrt(std::max(0.0, pt.var));
+    if (options.compute_edf) {
+      const int a = identifyNoiseAlpha(dk, phases, m);
+      pt.alpha = a != kNoAlpha ? a : (curve.points.empty() ? 0 : curve.points.back().alpha);
+    }
+    curve.points.push_back(pt);
+  }
+  if (options.compute_edf) fillConfidence(&curve, options.confidence);
+  return curve;
+}
+
+void checkCommon(double tau0, const DeviationOptions& options) {
+  if (!(tau0 > 0) || !std::isfinite(tau0)) throw std::invalid_argument("computeDeviation: tau0 must be finite and > 0");
+  if (options.compute_edf && !(options.confidence > 0 && options.confidence < 1))
+    throw std::invalid_argument("computeDeviation: confidence must be in (0,1)");
+}
+
+DeviationCurve computeImpl(const std::string& name, const std::vector<const std::vector<double>*>& segments,
+                           InputKind kind, double tau0, const std::vector<int64_t>* factors,
+                           const DeviationOptions& options) {
+  const DevKind dk = devKindFromName(name);
+  checkCommon(tau0, options);
+  std::vector<std::vector<double>> storage;
+  const auto spans = toPhaseSpans(segments, kind, tau0, &storage);
+  if (factors) return computeOnSpans(dk, name, spans, tau0, *factors, options);
+  int64_t longest = 0;
+  for (const auto& s : spans) longest = std::max(longest, s.n);
+  const auto grid = tauGridFactors(options.grid, deviationMaxFactor(dk, longest));
+  return computeOnSpans(dk, name, spans, tau0, grid, options);
+}
+
+std::vector<const std::vector<double>*> pointers(const std::vector<std::vector<double>>& segments) {
+  std::vector<const std::vector<double>*> p;
+  for (const auto& s : segments) p.push_back(&s);
+  return p;
+}
+
+}  // namespace
+
+DeviationCurve computeDeviationAt(const std::string& name, const std::vector<std::vector<double>>& segments,
+                                  InputKind kind, double tau0, const std::vector<int64_t>& factors,
+                                  const DeviationOptions& options) {
+  return computeImpl(name, pointers(segments), kind, tau0, &factors, options);
+}
+
+DeviationCurve computeDeviationAt(const std::string& name, const std::vector<double>& samples, InputKind kind,
+                                  double tau0, const std::vector<int64_t>& factors, const DeviationOptions& options) {
+  return computeImpl(name, {&samples}, kind, tau0, &factors, options);
+}
+
+int64_t deviationMaxFactor(const std::string& name, int64_t n_phase) {
+  return deviationMaxFactor(devKindFromName(name), n_phase);
+}
+
+DeviationCurve computeDeviation(const std::string& name, const std::vector<std::vector<double>>& segments,
+                                InputKind kind, double tau0, const DeviationOptions& options) {
+  return computeImpl(name, pointers(segments), kind, tau0, nullptr, options);
+}
+
+DeviationCurve computeDeviation(const std::string& name, const std::vector<double>& samples, InputKind kind,
+                                double tau0, const DeviationOptions& options) {
+  return computeImpl(name, {&samples}, kind, tau0, nullptr, options);
+}
+
+DeviationCurve oadev(const std::vector<double>& rate, double tau0, const DeviationOptions& options) {
+  return computeDeviation("oadev", rate, InputKind::Rate, tau0, options);
+}
+
+}  // namespace gyro_allan

@@ -1,0 +1,405 @@
+// Equivalent degrees of freedom (Greenhall-Riley 2003, SP1065 totvar), noise identification (lag-1 ACF, B1) and
+// chi-squared confidence intervals of Allan-family deviations.
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+#include "allan_internal.hpp"
+#include "gyro_allan/allan.hpp"
+
+namespace gyro_allan {
+
+// ------------------------------------------------------------------------------------------------ chi-squared
+namespace {
+
+/// Regularized lower incomplete gamma P(a, x).
+double gammaP(double a, double x) {
+  if (x <= 0) return 0.0;
+  const double log_pref = a * std::log(x) - x - std::lgamma(a);
+  if (x < a + 1.0) {
+    // series: P = e^{-x} x^a / Gamma(a) * sum_n x^n / (a (a+1) ... (a+n))
+    double term = 1.0 / a, sum = term;
+    for (int n = 1; n < 10000000; ++n) {
+      term *= x / (a + n);
+      sum += term;
+      if (term < sum * 1e-17) break;
+    }
+    return std::min(1.0, sum * std::exp(log_pref));
+  }
+  // continued fraction for Q (modified Lentz)
+  const double tiny = 1e-300;
+  double b = x + 1.0 - a, c = 1.0 / tiny, d = 1.0 / b, h = d;
+  for (int i = 1; i < 10000000; ++i) {
+    const double an = -i * (i - a);
+    b += 2.0;
+    d = an * d + b;
+    if (std::fabs(d) < tiny) d = tiny;
+    c = b + an / c;
+    if (std::fabs(c) < tiny) c = tiny;
+    d = 1.0 / d;
+    const double del = d * c;
+    h *= del;
+    if (std::fabs(del - 1.0) < 1e-16) break;
+  }
+  return std::max(0.0, 1.0 - std::exp(log_pref) * h);
+}
+
+/// Standard normal quantile (rational start refined by Newton steps on erfc).
+double normalQuantile(double p) {
+  // Initial guess: logistic-like approximation, then Newton on Phi(z) = p.
+  double z;
+  if (p < 0.5) {
+    const double t = std::sqrt(-2.0 * std::log(p));
+    z = -(t - (2.515517 + 0.802853 * t + 0.010328 * t * t) / (1 + 1.432788 * t + 0.189269 * t * t + 0.001308 * t * t * t));
+  } else {
+    const double t = std::sqrt(-2.0 * std::log(1 - p));
+    z = t - (2.515517 + 0.802853 * t + 0.010328 * t * t) / (1 + 1.432788 * t + 0.189269 * t * t + 0.001308 * t * t * t);
+  }
+  for (int i = 0; i < 6; ++i) {
+    const double cdf = 0.5 * std::erfc(-z / std::sqrt(2.0));
+    const double pdf = std::exp(-0.5 * z * z) / std::sqrt(2.0 * M_PI);
+    if (pdf <= 0) break;
+    z -= (cdf - p) / pdf;
+  }
+  return z;
+}
+
+}  // namespace
+
+double chi2Quantile(double p, double dof) {
+  if (!(p > 0 && p < 1)) throw std::invalid_argument("chi2Quantile: p must be in (0,1)");
+  if (!(dof > 0) || !std::isfinite(dof)) throw std::invalid_argument("chi2Quantile: dof must be finite and > 0");
+  const double z = normalQuantile(p);
+  // Wilson-Hilferty start
+  const double h = 2.0 / (9.0 * dof);
+  double x = dof * std::pow(std::max(1e-3, 1.0 - h + z * std::sqrt(h)), 3);
+  if (dof > 2e6) return x;  // Wilson-Hilferty relative error < 1e-9 here
+  const double a = 0.5 * dof;
+  double lo = 0, hi = std::max(1.0, x);
+  while (gammaP(a, 0.5 * hi) < p) hi *= 2;
+  if (!(x > lo && x < hi)) x = 0.5 * (lo + hi);
+  for (int it = 0; it < 200; ++it) {
+    const double f = gammaP(a, 0.5 * x) - p;
+    if (f < 0) lo = x; else hi = x;
+    const double logpdf = (a - 1) * std::log(x) - 0.5 * x - a * std::log(2.0) - std::lgamma(a);
+    const double pdf = std::exp(logpdf);
+    double xn = (pdf > 0) ? x - f / pdf : 0.5 * (lo + hi);
+    if (!(xn > lo && xn < hi)) xn = 0.5 * (lo + hi);
+    if (std::fabs(xn - x) <= 1e-15 * x) {
+      x = xn;
+      break;
+    }
+    x = xn;
+    if (hi - lo <= 1e-15 * hi) break;
+  }
+  return x;
+}
+
+// ------------------------------------------------------------------------------------------------ Greenhall EDF
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+/// Generalized autocovariance kernel of power-law phase noise (Greenhall 2003, eq. 7).
+long double sw(long double t, int alpha) {
+  const long double a = std::fabs(t);
+  switch (alpha) {
+    case 2: return -a;
+    case 1: return a == 0 ? 0.0L : t * t * std::log(a);
+    case 0: return a * a * a;
+    case -1: return a == 0 ? 0.0L : -t * t * t * t * std::log(a);
+    case -2: return -a * a * a * a * a;
+    case -3: return a == 0 ? 0.0L : std::pow(t, 6) * std::log(a);
+    case -4: return std::pow(a, 7);
+  }
+  throw std::invalid_argument("Greenhall EDF: alpha out of range");
+}
+
+/// Kernel after the phase averaging filter of length 1/F (F = inf: no averaging, unmodified limit).
+long double sx(long double t, double F, int alpha) {
+  if (std::isinf(F)) return sw(t, alpha + 2);
+  const long double f = F;
+  return f * f * (2 * sw(t, alpha) - sw(t - 1 / f, alpha) - sw(t + 1 / f, alpha));
+}
+
+long double binom(int n, int k) {
+  long double r = 1;
+  for (int i = 1; i <= k; ++i) r = r * (n - k + i) / i;
+  return r;
+}
+
+/// Covariance kernel of the d-th difference (symmetric binomial filter of order 2d applied to sx).
+long double sz(long double t, double F, int alpha, int d) {
+  long double s = 0;
+  for (int k = -d; k <= d; ++k) {
+    const long double c = binom(2 * d, d + k) * ((k % 2) ? -1 : 1);
+    s += c * sx(t + k, F, alpha);
+  }
+  return s;
+}
+
+long double basicSum(double J, double M, double S, double F, int alpha, int d) {
+  const long double z0 = sz(0, F, alpha, d);
+  long double sum = z0 * z0;
+  const long double zJ = sz(J / S, F, alpha, d);
+  sum += (1 - J / M) * zJ * zJ;
+  for (int64_t j = 1; j < static_cast<int64_t>(J); ++j) {
+    const long double zj = sz(j / S, F, alpha, d);
+    sum += 2 * (1 - j / M) * zj * zj;
+  }
+  return sum;
+}
+
+// Greenhall & Riley 2003, Tables 1-3 (asymptotic coefficients); rows alpha = 2..-4, columns d = 1..3. NaN: invalid.
+const double NA = std::numeric_limits<double>::quiet_NaN();
+const double kTable1[7][3][2] = {  // modified variances
+    {{2.0 / 3, 1.0 / 3}, {7.0 / 9, 0.5}, {22.0 / 25, 2.0 / 3}},
+    {{0.840, 0.345}, {0.997, 0.616}, {1.141, 0.843}},
+    {{1.079, 0.368}, {1.033, 0.607}, {1.184, 0.848}},
+    {{NA, NA}, {1.048, 0.534}, {1.180, 0.816}},
+    {{NA, NA}, {1.302, 0.535}, {1.175, 0.777}},
+    {{NA, NA}, {NA, NA}, {1.194, 0.703}},
+    {{NA, NA}, {NA, NA}, {1.489, 0.702}}};
+const double kTable2[7][3][2] = {  // unmodified variances
+    {{1.5, 0.5}, {35.0 / 18, 1.0}, {2.31, 1.5}},
+    {{78.6, 25.2}, {790.0, 410.0}, {9950.0, 6520.0}},
+    {{2.0 / 3, 1.0 / 6}, {2.0 / 3, 1.0 / 3}, {7.0 / 9, 0.5}},
+    {{NA, NA}, {0.852, 0.375}, {0.997, 0.617}},
+    {{NA, NA}, {1.079, 0.368}, {1.033, 0.607}},
+    {{NA, NA}, {NA, NA}, {1.053, 0.553}},
+    {{NA, NA}, {NA, NA}, {1.302, 0.535}}};
+const double kTable3[3][2] = {{6.0, 4.0}, {15.23, 12.0}, {47.8, 40.0}};  // alpha = 1, unmodified
+
+}  // namespace
+
+/// Greenhall-Riley EDF of a d-th difference variance of n phase points at factor m.
+/// modified: phase averaged over m (mvar); overlapping: stride 1 (else stride m).
+double greenhallEdf(int alpha, int d, int64_t m, int64_t n, bool overlapping, bool modified) {
+  if (d < 1 || d > 3) throw std::invalid_argument("Greenhall EDF: d must be 1..3");
+  if (alpha > 2 || alpha < -4 || alpha + 2 * d <= 1)
+    throw std::invalid_argument("Greenhall EDF: alpha " + std::to_string(alpha) + " invalid for difference order " +
+                                std::to_string(d));
+  const double F = modified ? 1.0 : static_cast<double>(m);
+  const double S = overlapping ? static_cast<double>(m) : 1.0;
+  const double L = m / F + static_cast<double>(m) * d;
+  if (static_cast<double>(n) < L) return 0;
+  const double M = 1 + std::floor(S * (n - L) / m);
+  const double J = std::min(M, (d + 1) * S);
+  const double Jmax = 100;
+  const double r = M / S;
+  const int row = 2 - alpha, col = d - 1;
+  if (modified) {
+    if (J <= Jmax) {
+      const long double z0 = sz(0, 1, alpha, d);
+      return static_cast<double>(z0 * z0 * M / basicSum(J, M, S, 1, alpha, d));
+    }
+    if (r > d + 1) {
+      const double a0 = kTable1[row][col][0], a1 = kTable1[row][col][1];
+      return r / (a0 - a1 / r);
+    }
+    const double mp = Jmax / r;
+    const long double z0 = sz(0, 1, alpha, d);
+    return static_cast<double>(z0 * z0 * Jmax / basicSum(Jmax, Jmax, mp, 1, alpha, d));
+  }
+  if (alpha <= 0) {
+    if (J <= Jmax) {
+      const double Fp = (m * (d + 1) <= Jmax) ? static_cast<double>(m) : kInf;
+      const long double z0 = sz(0, Fp, alpha, d);
+      return static_cast<double>(z0 * z0 * M / basicSum(J, M, S, Fp, alpha, d));
+    }
+    if (r > d + 1) {
+      const double a0 = kTable2[row][col][0], a1 = kTable2[row][col][1];
+      return r / (a0 - a1 / r);
+    }
+    const double mp = Jmax / r;
+    const long double z0 = sz(0, kInf, alpha, d);
+    return static_cast<double>(z0 * z0 * Jmax / basicSum(Jmax, Jmax, mp, kInf, alpha, d));
+  }
+  if (alpha == 1) {
+    if (J <= Jmax) {
+      const long double z0 = sz(0, static_cast<double>(m), 1, d);
+      return static_cast<double>(z0 * z0 * M / basicSum(J, M, S, static_cast<double>(m), 1, d));
+    }
+    const double b0 = kTable3[col][0], b1 = kTable3[col][1];
+    const double bz = b0 + b1 * std::log(static_cast<double>(m));
+    if (r > d + 1) {
+      const double a0 = kTable2[row][col][0], a1 = kTable2[row][col][1];
+      return bz * bz * r / (a0 - a1 / r);
+    }
+    const double mp = Jmax / r;
+    return static_cast<double>(bz * bz * Jmax / basicSum(Jmax, Jmax, mp, mp, 1, d));
+  }
+  // alpha == 2, unmodified: exact sum over the few non-zero lags (lag k*S, |k| <= d).
+  const long double c0 = binom(2 * d, d);
+  long double inv = 0;
+  for (int k = -d; k <= d; ++k) {
+    const double w = 1 - S * std::abs(k) / M;
+    if (w <= 0) continue;
+    const long double rho = binom(2 * d, d + k) / c0;
+    inv += w * rho * rho;
+  }
+  return static_cast<double>(M / inv);
+}
+
+// ------------------------------------------------------------------------------------------------ per deviation
+namespace {
+
+double edfForKind(DevKind kind, int alpha, int64_t m, int64_t n_phase) {
+  if (m < 1 || n_phase < 2) return 0;
+  switch (kind) {
+    case DevKind::Adev: return greenhallEdf(alpha, 2, m, n_phase, false, false);
+    case DevKind::Oadev: return greenhallEdf(alpha, 2, m, n_phase, true, false);
+    case DevKind::Mdev:
+    case DevKind::Tdev: return greenhallEdf(alpha, 2, m, n_phase, true, true);
+    case DevKind::Hdev: return greenhallEdf(alpha, 3, m, n_phase, false, false);
+    case DevKind::Ohdev: return greenhallEdf(alpha, 3, m, n_phase, true, false);
+    case DevKind::Totdev: {
+      // NIST SP1065 sec. 5.2.11: edf = b (T/tau) - c for FM noises; PM noises fall back to the OADEV EDF.
+      const double t_over_tau = static_cast<double>(n_phase - 1) / m;
+      switch (alpha) {
+        case 0: return 1.50 * t_over_tau;
+        case -1: return std::max(0.0, 1.17 * t_over_tau - 0.22);
+        case -2: return std::max(0.0, 0.93 * t_over_tau - 0.36);
+        default: return greenhallEdf(alpha, 2, m, n_phase, true, false);
+      }
+    }
+  }
+  return 0;
+}
+
+}  // namespace
+
+int64_t equivalentPhasePoints(DevKind kind, int64_t n, int64_t m) {
+  switch (kind) {
+    case DevKind::Adev: return (n + 1) * m + 1;
+    case DevKind::Oadev: return n + 2 * m;
+    case DevKind::Mdev:
+    case DevKind::Tdev: return n + 3 * m - 1;
+    case DevKind::Hdev: return (n + 2) * m + 1;
+    case DevKind::Ohdev: return n + 3 * m;
+    case DevKind::Totdev: return n + 2;
+  }
+  return 0;
+}
+
+double deviationEdf(const std::string& name, int alpha, int64_t m, int64_t n_phase) {
+  const DevKind kind = devKindFromName(name);
+  if (alpha < -2 || alpha > 2) throw std::invalid_argument("deviationEdf: alpha must be in -2..2");
+  return edfForKind(kind, alpha, m, n_phase);
+}
+
+void fillConfidence(DeviationCurve* curve, double confidence) {
+  if (!curve) throw std::invalid_argument("fillConfidence: null curve");
+  if (!(confidence > 0 && confidence < 1)) throw std::invalid_argument("fillConfidence: confidence must be in (0,1)");
+  const DevKind kind = devKindFromName(curve->name);
+  for (auto& p : curve->points) {
+    const int64_t n_eq = equivalentPhasePoints(kind, p.n_terms, p.m);
+    p.edf = edfForKind(kind, std::max(-2, std::min(2, p.alpha)), p.m, n_eq);
+    if (p.edf > 0 && std::isfinite(p.edf)) {
+      const double qhi = chi2Quantile(0.5 * (1 + confidence), p.edf);
+      const double qlo = chi2Quantile(0.5 * (1 - confidence), p.edf);
+      p.dev_lo = p.dev * std::sqrt(p.edf / qhi);
+      p.dev_hi = p.dev * std::sqrt(p.edf / qlo);
+    } else {
+      p.edf = 0;
+      p.dev_lo = p.dev_hi = 0;
+    }
+  }
+}
+
+// ------------------------------------------------------------------------------------------------ noise ID
+namespace {
+
+/// Pooled lag-1 autocorrelation of mean-removed sequences.
+double lag1Acf(const std::vector<std::vector<double>>& seqs) {
+  long double num = 0, den = 0;
+  for (const auto& z : seqs) {
+    if (z.size() < 2) continue;
+    long double mean = 0;
+    for (double v : z) mean += v;
+    mean /= z.size();
+    for (size_t i = 0; i < z.size(); ++i) {
+      const long double a = z[i] - mean;
+      den += a * a;
+      if (i + 1 < z.size()) num += a * (z[i + 1] - mean);
+    }
+  }
+  return den > 0 ? static_cast<double>(num / den) : 0.0;
+}
+
+/// Barnes B1(N, mu): expected ratio of the N-sample variance to the Allan variance for sigma^2(tau) ~ tau^mu.
+double b1Theory(double N, int mu) {
+  if (mu == 0) return N * std::log(N) / (2 * (N - 1) * std::log(2.0));
+  return N * (1 - std::pow(N, mu)) / (2 * (N - 1) * (1 - std::pow(2.0, mu)));
+}
+
+}  // namespace
+
+int identifyNoiseAlpha(DevKind kind, const std::vector<PhaseSpan>& phases, int64_t m) {
+  (void)kind;
+  // Phase decimated by m (equivalent to frequency averaged over tau), per segment.
+  std::vector<std::vector<double>> seqs;
+  int64_t total = 0;
+  for (const auto& p : phases) {
+    if (p.n < 2) continue;
+    std::vector<double> z;
+    z.reserve(static_cast<size_t>((p.n - 1) / m + 1));
+    for (int64_t i = 0; i < p.n; i += m) z.push_back(p.x[i]);
+    total += static_cast<int64_t>(z.size());
+    seqs.push_back(std::move(z));
+  }
+  const int dmax = 2;
+  if (total >= 30) {
+    // Riley & Greenhall lag-1 ACF: difference until delta = r1/(1+r1) < 0.25; alpha = 2 - round(2 delta) - 2 d.
+    for (int d = 0;; ++d) {
+      const double r1 = lag1Acf(seqs);
+      const double delta = r1 / (1 + r1);
+      if (delta < 0.25 || d >= dmax) {
+        const int a = 2 - static_cast<int>(std::lround(2 * delta)) - 2 * d;
+        return std::max(-2, std::min(2, a));
+      }
+      for (auto& z : seqs) {
+        if (z.empty()) continue;
+        for (size_t i = 0; i + 1 < z.size(); ++i) z[i] = z[i + 1] - z[i];
+        z.pop_back();
+      }
+    }
+  }
+  // Too few points: B1 ratio on the frequency averages of the longest segment.
+  const std::vector<double>* longest = nullptr;
+  for (const auto& z : seqs)
+    if (!longest || z.size() > longest->size()) longest = &z;
+  if (!longest || longest->size() < 4) return kNoAlpha;
+  std::vector<double> y(longest->size() - 1);
+  for (size_t i = 0; i + 1 < longest->size(); ++i) y[i] = (*longest)[i + 1] - (*longest)[i];
+  const double N = static_cast<double>(y.size());
+  long double mean = 0;
+  for (double v : y) mean += v;
+  mean /= N;
+  long double ss = 0, av = 0;
+  for (size_t i = 0; i < y.size(); ++i) {
+    ss += (y[i] - mean) * (y[i] - mean);
+    if (i + 1 < y.size()) av += (y[i + 1] - y[i]) * static_cast<long double>(y[i + 1] - y[i]);
+  }
+  if (av <= 0) return kNoAlpha;
+  const double b1 = static_cast<double>((ss / (N - 1)) / (0.5L * av / (N - 1)));
+  // mu = 1 (RW FM, alpha -2), 0 (FFM, -1), -1 (WFM, 0), -2 (PM, 1 or 2); boundaries at geometric means.
+  const int mus[4] = {1, 0, -1, -2};
+  const int alphas[4] = {-2, -1, 0, 1};
+  int pick = 3;
+  for (int k = 0; k < 3; ++k) {
+    const double bound = std::sqrt(b1Theory(N, mus[k]) * b1Theory(N, mus[k + 1]));
+    if (b1 > bound) {
+      pick = k;
+      break;
+    }
+  }
+  if (alphas[pick] != 1) return alphas[pick];
+  // PM: white vs flicker PM from the lag-1 ACF of the few decimated phase points.
+  const double r1 = lag1Acf({*longest});
+  const double delta = r1 / (1 + r1);
+  return delta < 0.25 ? 2 : 1;
+}
+
+}  // namespace gyro_allan
