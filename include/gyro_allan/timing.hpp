@@ -1,0 +1,55 @@
+// Timestamp and sample sanitation: drops NaN/Inf, out-of-order, duplicate and zero stamps, splits at gaps into
+// gap-free segments, and counts every problem so nothing is lost silently.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace gyro_allan {
+
+struct StampReport {
+  int64_t input = 0;           ///< samples offered
+  int64_t kept = 0;            ///< samples in segments
+  int64_t non_finite = 0;      ///< dropped: a NaN/Inf value on any axis
+  int64_t zero_stamp = 0;      ///< dropped: stamp == 0
+  int64_t out_of_order = 0;    ///< dropped: stamp earlier than the previous kept one
+  int64_t duplicate = 0;       ///< dropped: stamp equal to (or closer than half a period to) the previous kept one
+  int64_t gaps = 0;            ///< splits: interval > gap_factor nominal periods
+  double gap_time_s = 0;       ///< time missing in gaps, s
+  double nominal_period_s = 0; ///< median interval between consecutive kept stamps
+  double rate_hz = 0;          ///< 1 / nominal_period_s
+  double max_rate_deviation = 0;  ///< largest relative difference of a segment's median interval from the nominal
+  bool rate_changed = false;   ///< some segment's median interval differs from the nominal by more than 5 %
+  double first_stamp = 0, last_stamp = 0;
+  /// One line per problem class that occurred, for humans ("3 out-of-order stamps dropped", ...).
+  std::vector<std::string> warnings() const;
+};
+
+/// A gap-free run: indices [begin, end) into the kept arrays.
+struct Segment {
+  size_t begin = 0, end = 0;
+  size_t size() const { return end - begin; }
+};
+
+struct SanitizedSeries {
+  std::vector<double> t;                    ///< kept stamps, s
+  std::array<std::vector<double>, 3> v;     ///< kept values per axis (unused axes stay empty)
+  std::vector<Segment> segments;            ///< gap-free runs over the kept arrays
+  StampReport report;
+  /// Values of one axis split into segments (for computeDeviation over segments).
+  std::vector<std::vector<double>> segmentValues(int axis) const;
+};
+
+struct SanitizeOptions {
+  double gap_factor = 1.5;      ///< an interval longer than this many nominal periods is a gap
+  double nominal_rate_hz = 0;   ///< 0 = estimate from the median interval
+  size_t min_segment = 2;       ///< shorter segments are dropped (and counted in gaps)
+};
+
+/// Sanitizes a multi-axis series (axes = 1..3 vectors of the same length as t).
+SanitizedSeries sanitize(const std::vector<double>& t, const std::vector<const std::vector<double>*>& axes,
+                         const SanitizeOptions& options = {});
+
+}  // namespace gyro_allan

@@ -1,0 +1,343 @@
+// IEEE 952/647 noise-model fit: EDF-weighted, iterated, non-negative least squares on the Allan variance.
+#include "gyro_allan/noise_model.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+#include <Eigen/Dense>
+
+namespace gyro_allan {
+namespace {
+
+constexpr double kFlickerFactor = 0.44127134622499293;  // 2 ln2 / pi
+
+/// Lawson-Hanson active-set NNLS: min ||A x - b|| s.t. x >= 0. Written here because neither Eigen 3.3 (Noetic)
+/// nor Eigen 3.4's main modules ship an NNLS solver; the problems are tiny (<= ~10 columns).
+Eigen::VectorXd nnls(const Eigen::MatrixXd& A, const Eigen::VectorXd& b) {
+  const int n = static_cast<int>(A.cols());
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(n);
+  std::vector<bool> passive(n, false);
+  const double tol = 1e-12 * std::max(1.0, A.norm() * b.norm());
+  auto solvePassive = [&](Eigen::VectorXd* s) {
+    std::vector<int> idx;
+    for (int j = 0; j < n; ++j)
+      if (passive[j]) idx.push_back(j);
+    s->setZero(n);
+    if (idx.empty()) return;
+    Eigen::MatrixXd Ap(A.rows(), static_cast<int>(idx.size()));
+    for (size_t k = 0; k < idx.size(); ++k) Ap.col(static_cast<int>(k)) = A.col(idx[k]);
+    Eigen::VectorXd sp = Ap.colPivHouseholderQr().solve(b);
+    for (size_t k = 0; k < idx.size(); ++k) (*s)[idx[k]] = sp[static_cast<int>(k)];
+  };
+  for (int outer = 0; outer < 3 * n + 10; ++outer) {
+    Eigen::VectorXd w = A.transpose() * (b - A * x);
+    int best = -1;
+    double best_w = tol;
+    for (int j = 0; j < n; ++j)
+      if (!passive[j] && w[j] > best_w) {
+        best_w = w[j];
+        best = j;
+      }
+    if (best < 0) break;
+    passive[best] = true;
+    Eigen::VectorXd s;
+    for (int inner = 0; inner < 3 * n + 10; ++inner) {
+      solvePassive(&s);
+      bool all_pos = true;
+      for (int j = 0; j < n; ++j)
+        if (passive[j] && s[j] <= 0) all_pos = false;
+      if (all_pos) break;
+      double alpha = 1.0;
+      for (int j = 0; j < n; ++j)
+        if (passive[j] && s[j] <= 0) alpha = std::min(alpha, x[j] / (x[j] - s[j]));
+      x += alpha * (s - x);
+      for (int j = 0; j < n; ++j)
+        if (passive[j] && x[j] <= 1e-15 * std::max(1.0, x.cwiseAbs().maxCoeff())) {
+          passive[j] = false;
+          x[j] = 0;
+        }
+    }
+    for (int j = 0; j < n; ++j) x[j] = passive[j] ? std::max(0.0, s[j]) : 0.0;
+  }
+  return x;
+}
+
+struct Column {
+  int term;  // IEEE term index, or kNumTerms + extra index
+  std::function<double(double)> basis;
+};
+
+}  // namespace
+
+const char* noiseTermKey(int term) {
+  static const char* keys[] = {"quantization", "angle_random_walk", "bias_instability", "rate_random_walk", "rate_ramp"};
+  return (term >= 0 && term < kNumTerms) ? keys[term] : "unknown";
+}
+
+const char* noiseTermUnit(int term) {
+  static const char* units[] = {"rad", "rad/sqrt(s)", "rad/s", "rad/s/sqrt(s)", "rad/s^2"};
+  return (term >= 0 && term < kNumTerms) ? units[term] : "";
+}
+
+double noiseTermBasis(int term, double tau) {
+  switch (term) {
+    case kQuantization: return 3.0 / (tau * tau);
+    case kAngleRandomWalk: return 1.0 / tau;
+    case kBiasInstability: return kFlickerFactor;
+    case kRateRandomWalk: return tau / 3.0;
+    case kRateRamp: return tau * tau / 2.0;
+    default: return 0.0;
+  }
+}
+
+double termVariance(const FitResult& fit, int term, double tau) {
+  const double v = fit.terms[static_cast<size_t>(term)].value;
+  return v * v * noiseTermBasis(term, tau);
+}
+
+double modelVariance(const FitResult& fit, double tau, const std::vector<ExtraTerm>& extra) {
+  double s = 0;
+  for (int t = 0; t < kNumTerms; ++t) s += termVariance(fit, t, tau);
+  for (size_t e = 0; e < extra.size() && e < fit.extra_c.size(); ++e) s += fit.extra_c[e] * extra[e].basis(tau);
+  return s;
+}
+
+FitError fitError(const DeviationCurve& curve, const std::vector<double>& model_var, const std::vector<bool>& used,
+                  int n_params, double rms_min_edf) {
+  FitError e;
+  double chi2 = 0, sum_log = 0;
+  int n_used = 0;
+  for (size_t i = 0; i < curve.points.size() && i < model_var.size(); ++i) {
+    const auto& p = curve.points[i];
+    const double m = model_var[i];
+    if (!(m > 0) || !(p.var > 0)) continue;
+    if (i < used.size() && used[i]) {
+      const double r = p.var / m - 1.0;
+      chi2 += 0.5 * p.edf * r * r;
+      ++n_used;
+    }
+    if (p.edf >= rms_min_edf) {
+      const double l = 0.5 * std::log10(p.var / m);
+      sum_log += l * l;
+      ++e.n_rms;
+    }
+  }
+  const int dof = std::max(1, n_used - n_params);
+  e.chi2_dof = chi2 / dof;
+  e.rms_log10 = e.n_rms > 0 ? std::sqrt(sum_log / e.n_rms) : std::numeric_limits<double>::quiet_NaN();
+  return e;
+}
+
+FitResult fitNoiseModel(const DeviationCurve& curve, const FitOptions& options, const std::vector<ExtraTerm>& extra) {
+  FitResult r;
+  const size_t np = curve.points.size();
+  r.tau.resize(np);
+  r.model_var.assign(np, 0.0);
+  r.used.assign(np, false);
+  r.extra.assign(extra.size(), Coefficient{});
+  r.extra_c.assign(extra.size(), 0.0);
+
+  // Points and their EDF (edf <= 0: the non-overlapping count N/m - 1 as a conservative stand-in).
+  std::vector<int> pts;
+  std::vector<double> edf(np, 0.0);
+  for (size_t i = 0; i < np; ++i) {
+    const auto& p = curve.points[i];
+    r.tau[i] = p.tau;
+    double e = p.edf;
+    if (!(e > 0) && p.m > 0) e = static_cast<double>(curve.n_phase) / static_cast<double>(p.m) - 1.0;
+    edf[i] = e;
+    if (p.tau > 0 && std::isfinite(p.var) && p.var > 0 && std::isfinite(e) && e >= options.min_edf) {
+      pts.push_back(static_cast<int>(i));
+      r.used[i] = true;
+    }
+  }
+  std::vector<Column> all_cols;
+  for (int t = 0; t < kNumTerms; ++t)
+    if (options.enabled[static_cast<size_t>(t)]) all_cols.push_back({t, [t](double tau) { return noiseTermBasis(t, tau); }});
+  for (size_t e = 0; e < extra.size(); ++e) all_cols.push_back({kNumTerms + static_cast<int>(e), extra[e].basis});
+  if (pts.size() < 2 || all_cols.empty()) {
+    r.message = "too few Allan-variance points to fit (" + std::to_string(pts.size()) + ")";
+    return r;
+  }
+
+  const int m = static_cast<int>(pts.size());
+  // Weights: AVAR estimates at nearby taus are strongly correlated (a 10-per-decade grid has ~3 points per octave
+  // that share most of their data). Treating them as independent overstates the information and understates the
+  // coefficient sigmas, so each point's EDF is divided by the number of fitted points within +-1/2 octave of it.
+  std::vector<double> wedf(edf);
+  if (options.decorrelate) {
+    for (int i : pts) {
+      int count = 0;
+      for (int j : pts) {
+        const double ratio = curve.points[static_cast<size_t>(j)].tau / curve.points[static_cast<size_t>(i)].tau;
+        if (ratio >= M_SQRT1_2 * (1 - 1e-12) && ratio < M_SQRT2 * (1 - 1e-12)) ++count;
+      }
+      wedf[static_cast<size_t>(i)] = edf[static_cast<size_t>(i)] / std::max(1, count);
+    }
+  }
+  std::vector<bool> active(all_cols.size(), true);
+  Eigen::VectorXd c = Eigen::VectorXd::Zero(static_cast<int>(all_cols.size()));
+  std::vector<double> model(static_cast<size_t>(m));
+  for (int i = 0; i < m; ++i) model[static_cast<size_t>(i)] = curve.points[static_cast<size_t>(pts[static_cast<size_t>(i)])].var;
+
+  auto design = [&](const std::vector<int>& cols, Eigen::MatrixXd* A, Eigen::VectorXd* b) {
+    A->resize(m, static_cast<int>(cols.size()));
+    b->resize(m);
+    for (int i = 0; i < m; ++i) {
+      const auto& p = curve.points[static_cast<size_t>(pts[static_cast<size_t>(i)])];
+      const double s = std::sqrt(0.5 * wedf[static_cast<size_t>(pts[static_cast<size_t>(i)])]) / model[static_cast<size_t>(i)];
+      for (size_t k = 0; k < cols.size(); ++k) (*A)(i, static_cast<int>(k)) = s * all_cols[static_cast<size_t>(cols[k])].basis(p.tau);
+      (*b)[i] = s * p.var;
+    }
+  };
+  auto activeCols = [&]() {
+    std::vector<int> cols;
+    for (size_t k = 0; k < all_cols.size(); ++k)
+      if (active[k]) cols.push_back(static_cast<int>(k));
+    return cols;
+  };
+  auto updateModel = [&]() {
+    for (int i = 0; i < m; ++i) {
+      const double tau = curve.points[static_cast<size_t>(pts[static_cast<size_t>(i)])].tau;
+      double v = 0;
+      for (size_t k = 0; k < all_cols.size(); ++k)
+        if (c[static_cast<int>(k)] > 0) v += c[static_cast<int>(k)] * all_cols[k].basis(tau);
+      if (v > 0) model[static_cast<size_t>(i)] = v;
+    }
+  };
+  auto solveIrls = [&]() {
+    for (int it = 0; it < std::max(1, options.iterations); ++it) {
+      const std::vector<int> cols = activeCols();
+      Eigen::MatrixXd A;
+      Eigen::VectorXd b;
+      design(cols, &A, &b);
+      Eigen::VectorXd scale(A.cols());
+      for (int k = 0; k < A.cols(); ++k) {
+        scale[k] = A.col(k).norm();
+        if (scale[k] > 0) A.col(k) /= scale[k];
+      }
+      Eigen::VectorXd x = nnls(A, b);
+      c.setZero();
+      for (size_t k = 0; k < cols.size(); ++k)
+        c[cols[k]] = scale[static_cast<int>(k)] > 0 ? x[static_cast<int>(k)] / scale[static_cast<int>(k)] : 0.0;
+      updateModel();
+    }
+  };
+  // Covariance of c over the given columns at the current weights (inverse Fisher information).
+  auto covariance = [&](const std::vector<int>& cols, Eigen::MatrixXd* cov) {
+    Eigen::MatrixXd A;
+    Eigen::VectorXd b;
+    design(cols, &A, &b);
+    Eigen::VectorXd scale(A.cols());
+    for (int k = 0; k < A.cols(); ++k) {
+      scale[k] = A.col(k).norm();
+      if (scale[k] > 0) A.col(k) /= scale[k];
+    }
+    Eigen::MatrixXd F = A.transpose() * A;
+    Eigen::MatrixXd Finv = F.completeOrthogonalDecomposition().pseudoInverse();
+    *cov = Finv;
+    for (int i = 0; i < cov->rows(); ++i)
+      for (int j = 0; j < cov->cols(); ++j) {
+        const double si = scale[i], sj = scale[j];
+        (*cov)(i, j) = (si > 0 && sj > 0) ? Finv(i, j) / (si * sj) : 0.0;
+      }
+  };
+
+  solveIrls();
+  // Backward elimination: drop the least significant IEEE term while any is below kSignificance sigma, then refit.
+  for (size_t round = 0; round < all_cols.size(); ++round) {
+    std::vector<int> pos;
+    for (size_t k = 0; k < all_cols.size(); ++k) {
+      if (!active[k]) continue;
+      if (c[static_cast<int>(k)] > 0) pos.push_back(static_cast<int>(k));
+      else if (all_cols[k].term < kNumTerms) active[k] = false;  // NNLS put it at the bound
+    }
+    if (pos.empty()) break;
+    Eigen::MatrixXd cov;
+    covariance(pos, &cov);
+    int worst = -1;
+    double worst_z = options.significance;
+    for (size_t k = 0; k < pos.size(); ++k) {
+      if (all_cols[static_cast<size_t>(pos[k])].term >= kNumTerms) continue;  // extra terms are the caller's to judge
+      const double sd = std::sqrt(std::max(0.0, cov(static_cast<int>(k), static_cast<int>(k))));
+      const double z = sd > 0 ? c[pos[k]] / sd : std::numeric_limits<double>::infinity();
+      if (z < worst_z) {
+        worst_z = z;
+        worst = pos[k];
+      }
+    }
+    if (worst < 0) break;
+    active[static_cast<size_t>(worst)] = false;
+    c[worst] = 0;
+    solveIrls();
+  }
+
+  // Final statistics.
+  std::vector<int> pos;
+  for (size_t k = 0; k < all_cols.size(); ++k)
+    if (active[k] && c[static_cast<int>(k)] > 0) pos.push_back(static_cast<int>(k));
+  for (size_t i = 0; i < np; ++i) {
+    double v = 0;
+    for (size_t k = 0; k < all_cols.size(); ++k)
+      if (c[static_cast<int>(k)] > 0) v += c[static_cast<int>(k)] * all_cols[k].basis(curve.points[i].tau);
+    r.model_var[i] = v;
+  }
+  DeviationCurve weighted = curve;
+  for (size_t i = 0; i < np; ++i) weighted.points[i].edf = edf[i];
+  const FitError fe = fitError(weighted, r.model_var, r.used, static_cast<int>(pos.size()), options.rms_min_edf);
+  r.dof = std::max(1, m - static_cast<int>(pos.size()));
+  r.chi2_dof = fe.chi2_dof;
+  r.chi2 = fe.chi2_dof * r.dof;
+  r.rms_log10 = fe.rms_log10;
+  r.n_rms = fe.n_rms;
+  const double inflate = std::max(1.0, r.chi2_dof);  // scale uncertainties when the model under-explains the scatter
+
+  auto setCoefficient = [&](int col, double cval, double cvar, bool supported) {
+    Coefficient co;
+    co.supported = supported;
+    if (supported) {
+      co.value = std::sqrt(cval);
+      co.sigma = std::sqrt(cvar * inflate) / (2.0 * co.value);
+    } else {
+      co.value = 0;
+      co.sigma = std::sqrt(std::max(0.0, cval) + std::sqrt(cvar * inflate));  // 1-sigma upper bound
+    }
+    const int term = all_cols[static_cast<size_t>(col)].term;
+    if (term < kNumTerms) r.terms[static_cast<size_t>(term)] = co;
+    else {
+      r.extra[static_cast<size_t>(term - kNumTerms)] = co;
+      r.extra_c[static_cast<size_t>(term - kNumTerms)] = supported ? cval : 0.0;
+    }
+  };
+  if (!pos.empty()) {
+    Eigen::MatrixXd cov;
+    covariance(pos, &cov);
+    for (size_t k = 0; k < pos.size(); ++k) setCoefficient(pos[k], c[pos[k]], cov(static_cast<int>(k), static_cast<int>(k)), true);
+  }
+  // Bounds of the terms the data does not support: the unconstrained estimate and its sigma when the term is added.
+  for (size_t k = 0; k < all_cols.size(); ++k) {
+    if (std::find(pos.begin(), pos.end(), static_cast<int>(k)) != pos.end()) continue;
+    std::vector<int> cols = pos;
+    cols.push_back(static_cast<int>(k));
+    Eigen::MatrixXd A;
+    Eigen::VectorXd b;
+    design(cols, &A, &b);
+    Eigen::VectorXd scale(A.cols());
+    for (int j = 0; j < A.cols(); ++j) {
+      scale[j] = A.col(j).norm();
+      if (scale[j] > 0) A.col(j) /= scale[j];
+    }
+    Eigen::VectorXd x = A.colPivHouseholderQr().solve(b);
+    const int last = static_cast<int>(cols.size()) - 1;
+    const double cu = scale[last] > 0 ? x[last] / scale[last] : 0.0;
+    Eigen::MatrixXd cov;
+    covariance(cols, &cov);
+    setCoefficient(static_cast<int>(k), cu, std::max(0.0, cov(last, last)), false);
+  }
+  r.ok = true;
+  return r;
+}
+
+}  // namespace gyro_allan

@@ -1,0 +1,143 @@
+// Timestamp and sample sanitation: drop bad samples, split at gaps, count everything.
+#include "gyro_allan/timing.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace gyro_allan {
+namespace {
+double median(std::vector<double> v) {
+  if (v.empty()) return 0;
+  const size_t mid = v.size() / 2;
+  std::nth_element(v.begin(), v.begin() + static_cast<long>(mid), v.end());
+  return v[mid];
+}
+}  // namespace
+
+std::vector<std::string> StampReport::warnings() const {
+  std::vector<std::string> w;
+  auto add = [&](int64_t n, const char* what) {
+    if (n > 0) w.push_back(std::to_string(n) + " " + what);
+  };
+  add(non_finite, "samples with NaN/Inf dropped");
+  add(zero_stamp, "samples with zero stamp dropped");
+  add(out_of_order, "out-of-order stamps dropped");
+  add(duplicate, "duplicate stamps dropped");
+  if (gaps > 0)
+    w.push_back(std::to_string(gaps) + " gaps (" + std::to_string(gap_time_s) +
+                " s missing): deviations computed over gap-free segments");
+  if (rate_changed)
+    w.push_back("sample rate changes within the record (max " + std::to_string(100 * max_rate_deviation) +
+                " % from nominal)");
+  return w;
+}
+
+std::vector<std::vector<double>> SanitizedSeries::segmentValues(int axis) const {
+  std::vector<std::vector<double>> out;
+  const auto& src = v[static_cast<size_t>(axis)];
+  for (const auto& s : segments) out.emplace_back(src.begin() + static_cast<long>(s.begin), src.begin() + static_cast<long>(s.end));
+  return out;
+}
+
+SanitizedSeries sanitize(const std::vector<double>& t, const std::vector<const std::vector<double>*>& axes,
+                         const SanitizeOptions& options) {
+  if (axes.empty() || axes.size() > 3) throw std::invalid_argument("sanitize: 1 to 3 axes expected");
+  for (const auto* a : axes)
+    if (!a || a->size() != t.size()) throw std::invalid_argument("sanitize: axis length differs from stamp count");
+  if (!(options.gap_factor > 1.0)) throw std::invalid_argument("sanitize: gap_factor must be > 1");
+  SanitizedSeries out;
+  StampReport& rep = out.report;
+  rep.input = static_cast<int64_t>(t.size());
+
+  // Pass 1: drop non-finite values and zero or non-finite stamps.
+  std::vector<size_t> idx;
+  idx.reserve(t.size());
+  for (size_t i = 0; i < t.size(); ++i) {
+    bool finite = std::isfinite(t[i]);
+    for (const auto* a : axes) finite = finite && std::isfinite((*a)[i]);
+    if (!finite) {
+      ++rep.non_finite;
+      continue;
+    }
+    if (t[i] == 0) {
+      ++rep.zero_stamp;
+      continue;
+    }
+    idx.push_back(i);
+  }
+  // Nominal period: the median of positive consecutive intervals (robust to a few bad stamps).
+  double period = options.nominal_rate_hz > 0 ? 1.0 / options.nominal_rate_hz : 0.0;
+  if (period <= 0) {
+    std::vector<double> d;
+    d.reserve(idx.size());
+    for (size_t k = 1; k < idx.size(); ++k) {
+      const double dt = t[idx[k]] - t[idx[k - 1]];
+      if (dt > 0) d.push_back(dt);
+    }
+    period = median(d);
+  }
+  // Pass 2: keep strictly increasing stamps at least half a period apart; split at gaps.
+  bool have_prev = false;
+  double prev = 0;
+  size_t seg_start = 0;
+  std::vector<double> seg_periods;
+  auto closeSegment = [&](size_t end) {
+    if (end > seg_start) {
+      if (end - seg_start >= options.min_segment) out.segments.push_back({seg_start, end});
+      else {
+        // Too short to carry a difference: its samples are dropped and counted as missing time.
+        for (size_t j = seg_start; j < end; ++j) {
+          out.t.pop_back();
+          for (auto& a : out.v)
+            if (!a.empty()) a.pop_back();
+        }
+        end = seg_start;
+      }
+    }
+    seg_start = out.t.size();
+  };
+  std::vector<double> intervals_in_seg;
+  for (size_t k = 0; k < idx.size(); ++k) {
+    const size_t i = idx[k];
+    const double ti = t[i];
+    if (have_prev) {
+      const double dt = ti - prev;
+      if (dt < 0) {
+        ++rep.out_of_order;
+        continue;
+      }
+      if (period > 0 ? dt < 0.5 * period : dt == 0) {
+        ++rep.duplicate;
+        continue;
+      }
+      if (period > 0 && dt > options.gap_factor * period) {
+        ++rep.gaps;
+        rep.gap_time_s += dt - period;
+        if (!intervals_in_seg.empty()) seg_periods.push_back(median(intervals_in_seg));
+        intervals_in_seg.clear();
+        closeSegment(out.t.size());
+      } else {
+        intervals_in_seg.push_back(dt);
+      }
+    }
+    out.t.push_back(ti);
+    for (size_t a = 0; a < axes.size(); ++a) out.v[a].push_back((*axes[a])[i]);
+    prev = ti;
+    have_prev = true;
+  }
+  if (!intervals_in_seg.empty()) seg_periods.push_back(median(intervals_in_seg));
+  closeSegment(out.t.size());
+  rep.kept = static_cast<int64_t>(out.t.size());
+  rep.nominal_period_s = period;
+  rep.rate_hz = period > 0 ? 1.0 / period : 0.0;
+  for (double p : seg_periods) rep.max_rate_deviation = std::max(rep.max_rate_deviation, std::fabs(p / period - 1.0));
+  rep.rate_changed = rep.max_rate_deviation > 0.05;
+  if (!out.t.empty()) {
+    rep.first_stamp = out.t.front();
+    rep.last_stamp = out.t.back();
+  }
+  return out;
+}
+
+}  // namespace gyro_allan
