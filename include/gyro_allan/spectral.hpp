@@ -1,0 +1,92 @@
+// Raw-sample diagnostics for the model check: Welch PSD and peaks, autocorrelation, mean-shift (bias step)
+// detection, linear regression (rate vs temperature), warm-up fit and impulsive outliers.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+namespace gyro_allan {
+
+/// One-sided power spectral density (units^2/Hz): integrates over [0, fs/2] to the variance.
+struct Psd {
+  double fs = 0;        ///< sample rate, Hz
+  double df = 0;        ///< bin spacing, Hz
+  int segments = 0;     ///< segments averaged
+  std::vector<double> f;
+  std::vector<double> p;
+};
+
+/// Welch estimate: Hann window, each segment's mean removed, `overlap` in [0, 0.9]. nperseg is clipped to the
+/// record length and must be >= 16 after clipping. Throws std::invalid_argument on bad input.
+Psd welchPsd(const std::vector<double>& x, double fs, int64_t nperseg, double overlap = 0.5);
+
+/// A narrow feature of a PSD standing above its local floor (running median of the surrounding bins).
+struct SpectralPeak {
+  double frequency_hz = 0;   ///< power-weighted centroid of the excess over the floor
+  double prominence_db = 0;  ///< 10 log10(peak bin / local median)
+  double power = 0;          ///< excess power over the floor summed over the feature (units^2): A^2/2 for a sinusoid
+  double amplitude = 0;      ///< sqrt(2 power): the amplitude of an equivalent sinusoid
+  double bandwidth_hz = 0;   ///< width of the feature where the excess exceeds half its maximum (>= df)
+  double df = 0;             ///< resolution of the PSD it was found in
+};
+
+/// Peaks at least min_prominence_db above the running median of +-halfwidth bins (halfwidth chosen from the PSD
+/// size), strongest first, at most max_peaks, one per feature. Bins below 6 df are not searched.
+std::vector<SpectralPeak> findPsdPeaks(const Psd& psd, double min_prominence_db, int max_peaks);
+
+/// Biased autocovariance (mean removed, divided by n) at lags 0..max_lag, by FFT.
+std::vector<double> autocovariance(const std::vector<double>& x, int64_t max_lag);
+
+/// Means of consecutive blocks of `block` samples (a trailing partial block is dropped).
+std::vector<double> blockMeans(const std::vector<double>& x, int64_t block);
+
+/// Exponential decay a exp(-lag dt / tc) fitted to a normalized autocorrelation (rho[0] = 1 ignored) over the lags
+/// where rho stays above `floor` (log-linear least squares). ok == false when fewer than 2 such lags.
+struct ExponentialAcfFit {
+  bool ok = false;
+  double tc = 0;        ///< correlation time, s
+  double a = 0;         ///< extrapolated correlation at lag 0+ (fraction of the variance that is correlated)
+  double r2 = 0;        ///< coefficient of determination of the log-linear fit
+  int lags = 0;
+};
+ExponentialAcfFit fitExponentialAcf(const std::vector<double>& rho, double dt, double floor);
+
+/// A shift of the mean (bias step) found on block means.
+struct MeanShift {
+  bool found = false;
+  int64_t index = 0;     ///< first sample after the step
+  double size = 0;       ///< mean after minus mean before (local least squares), units of x
+  double z = 0;          ///< block-mean difference in units of the robust (MAD) scale of all block-mean differences
+};
+
+/// Finds the most significant mean shift: differences of consecutive block means of `block` samples are compared
+/// with their robust scale; the largest (z >= z_min) is localized to a sample by a least-squares step fit over
+/// the two blocks on either side. Returns found == false when nothing reaches z_min.
+MeanShift detectMeanShift(const std::vector<double>& x, int64_t block, double z_min);
+
+/// Ordinary least squares y = intercept + slope x with the slope's standard error and the correlation r.
+struct LinearRegression {
+  double slope = 0, slope_sigma = 0, intercept = 0, r = 0;
+  int n = 0;
+};
+LinearRegression linearRegression(const std::vector<double>& x, const std::vector<double>& y);
+
+/// Warm-up drift c + a (1 - exp(-t/theta)) fitted to block means (t of block centres) by a log grid over theta in
+/// [theta_min, theta_max] with linear least squares for c and a.
+struct WarmupFit {
+  bool ok = false;
+  double theta = 0, a = 0, a_sigma = 0;
+  double rss = 0;  ///< residual sum of squares at the optimum
+};
+WarmupFit fitWarmup(const std::vector<double>& block_means, double block_s, double theta_min, double theta_max);
+
+/// Impulsive outliers: samples more than z_min robust sigmas (MAD of first differences / sqrt 2 / 0.6745) away from
+/// the median of their +-half_window neighbours.
+struct Outliers {
+  std::vector<int64_t> index;
+  double sum_sq_area = 0;   ///< sum over outliers of ((x - local median) * tau0)^2
+  double robust_sigma = 0;
+};
+Outliers detectOutliers(const std::vector<double>& x, double tau0, double z_min, int half_window = 8);
+
+}  // namespace gyro_allan

@@ -1,0 +1,115 @@
+// Tests of the raw-sample diagnostics (spectral.hpp) on simulated data with declared content.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+#include <stdexcept>
+#include <vector>
+
+#include "gyro_allan/simulate.hpp"
+#include "gyro_allan/spectral.hpp"
+
+using namespace gyro_allan;
+
+TEST(Spectral, WhiteNoiseLevel) {
+  // One-sided PSD of white noise with variance s^2 at fs is 2 s^2 / fs; the mean over bins within 2 %.
+  std::mt19937_64 rng(1);
+  std::normal_distribution<double> nd(0.0, 2.0);
+  std::vector<double> x(200000);
+  for (auto& v : x) v = nd(rng);
+  const Psd p = welchPsd(x, 50.0, 1024);
+  double mean = 0;
+  for (size_t k = 1; k + 1 < p.p.size(); ++k) mean += p.p[k];
+  mean /= (p.p.size() - 2);
+  EXPECT_NEAR(mean, 2.0 * 4.0 / 50.0, 0.02 * 2.0 * 4.0 / 50.0);
+  EXPECT_GT(p.segments, 300);
+  EXPECT_TRUE(findPsdPeaks(p, 6.0, 5).empty()) << "no 6 dB peak in white noise";
+}
+
+TEST(Spectral, SinusoidPeak) {
+  // 3.3 Hz, amplitude 0.2 in white noise of std 1 at 100 Hz: centroid within 1 % of f0, amplitude within 10 %.
+  AxisNoise a;
+  a.angle_random_walk = 0.1;  // 1/sqrt(0.01) * 0.1 = 1 rad/s std
+  a.sine_amplitude = 0.2;
+  a.sine_frequency = 3.3;
+  const std::vector<double> x = simulateAxis(a, 100.0, 300000, 2);
+  const Psd p = welchPsd(x, 100.0, 8192);
+  const auto peaks = findPsdPeaks(p, 6.0, 3);
+  ASSERT_FALSE(peaks.empty());
+  EXPECT_NEAR(peaks[0].frequency_hz, 3.3, 0.033);
+  EXPECT_NEAR(peaks[0].amplitude, 0.2, 0.02);
+  EXPECT_GT(peaks[0].prominence_db, 10.0);
+}
+
+TEST(Spectral, AutocovarianceOfAr1) {
+  // Gauss-Markov with Tc = 0.5 s at 20 Hz: rho(k) = exp(-k/10); fitted Tc within 10 %.
+  AxisNoise a;
+  a.gm_sigma = 1.0;
+  a.gm_tau = 0.5;
+  const std::vector<double> x = simulateAxis(a, 20.0, 400000, 3);
+  const std::vector<double> ac = autocovariance(x, 40);
+  ASSERT_EQ(ac.size(), 41u);
+  EXPECT_NEAR(ac[0], 1.0, 0.05);
+  std::vector<double> rho(ac.size());
+  for (size_t k = 0; k < ac.size(); ++k) rho[k] = ac[k] / ac[0];
+  EXPECT_NEAR(rho[10], std::exp(-1.0), 0.03);
+  const ExponentialAcfFit f = fitExponentialAcf(rho, 0.05, 0.1);
+  ASSERT_TRUE(f.ok);
+  EXPECT_NEAR(f.tc, 0.5, 0.05);
+  EXPECT_GT(f.r2, 0.95);
+}
+
+TEST(Spectral, MeanShiftFoundAndLocalized) {
+  // A 0.5-sigma step at sample 123457 of 400000 white samples: found, index within 0.2 % of the record, size 10 %.
+  std::mt19937_64 rng(4);
+  std::normal_distribution<double> nd(0.0, 1.0);
+  std::vector<double> x(400000);
+  for (size_t i = 0; i < x.size(); ++i) x[i] = nd(rng) + (i >= 123457 ? 0.5 : 0.0);
+  const MeanShift s = detectMeanShift(x, 4000, 6.0);
+  ASSERT_TRUE(s.found);
+  EXPECT_NEAR(static_cast<double>(s.index), 123457.0, 800.0);
+  EXPECT_NEAR(s.size, 0.5, 0.05);
+  // Without the step nothing reaches z = 6.
+  for (size_t i = 123457; i < x.size(); ++i) x[i] -= 0.5;
+  EXPECT_FALSE(detectMeanShift(x, 4000, 6.0).found);
+}
+
+TEST(Spectral, RegressionWarmupOutliers) {
+  std::vector<double> t(100), y(100);
+  for (int i = 0; i < 100; ++i) {
+    t[i] = 20.0 + 0.1 * i;
+    y[i] = 3.0 - 0.25 * t[i] + 0.01 * std::sin(7.0 * i);
+  }
+  const LinearRegression lr = linearRegression(t, y);
+  EXPECT_NEAR(lr.slope, -0.25, 0.005);
+  EXPECT_LT(lr.r, -0.99);
+
+  std::vector<double> bm(200);
+  for (int i = 0; i < 200; ++i) bm[i] = 1.0 + 0.3 * (1.0 - std::exp(-(i + 0.5) * 10.0 / 400.0));
+  const WarmupFit w = fitWarmup(bm, 10.0, 20.0, 4000.0);
+  ASSERT_TRUE(w.ok);
+  EXPECT_NEAR(w.theta, 400.0, 40.0);
+  EXPECT_NEAR(w.a, 0.3, 0.03);
+
+  std::mt19937_64 rng(5);
+  std::normal_distribution<double> nd(0.0, 1.0);
+  std::vector<double> x(50000);
+  for (auto& v : x) v = nd(rng);
+  x[1000] += 30.0;
+  x[30000] -= 25.0;
+  const Outliers o = detectOutliers(x, 0.01, 10.0);
+  ASSERT_EQ(o.index.size(), 2u);
+  EXPECT_EQ(o.index[0], 1000);
+  EXPECT_EQ(o.index[1], 30000);
+  EXPECT_NEAR(o.robust_sigma, 1.0, 0.1);
+}
+
+TEST(Spectral, BadInputThrows) {
+  std::vector<double> x(100, 1.0);
+  EXPECT_THROW(welchPsd(x, 0.0, 32), std::invalid_argument);
+  EXPECT_THROW(welchPsd(std::vector<double>(8, 1.0), 10.0, 32), std::invalid_argument);
+  x[5] = std::nan("");
+  EXPECT_THROW(welchPsd(x, 10.0, 32), std::invalid_argument);
+  EXPECT_THROW(blockMeans(x, 0), std::invalid_argument);
+  EXPECT_THROW(linearRegression({1, 2, 3}, {1, 2}), std::invalid_argument);
+}
