@@ -26,7 +26,7 @@ int64_t deviationMaxFactor(DevKind kind, int64_t n_phase);
 void accumulateSegment(DevKind kind, const double* x, int64_t n, int64_t m, SegmentSums* s);
 double varianceFromSums(DevKind kind, const SegmentSums& s, int64_t m, double tau0);
 
-/// Power-law noise exponent alpha in [-2, 2] at averaging factor m (lag-1 ACF method, B1 ratio fallback);
+/// Power-law noise exponent alpha in [-2, 2] at averaging factor m (lag-1 ACF method, Riley & Greenhall);
 /// returns kNoAlpha when too few points remain (caller then reuses the neighbouring point's alpha).
 constexpr int kNoAlpha = 99;
 int identifyNoiseAlpha(DevKind kind, const std::vector<PhaseSpan>& phases, int64_t m);

@@ -1,4 +1,4 @@
-// Equivalent degrees of freedom (Greenhall-Riley 2003, SP1065 totvar), noise identification (lag-1 ACF, B1) and
+// Equivalent degrees of freedom (Greenhall-Riley 2003, SP1065 totvar), noise identification (lag-1 ACF) and
 // chi-squared confidence intervals of Allan-family deviations.
 #include <algorithm>
 #include <cmath>
@@ -328,12 +328,6 @@ double lag1Acf(const std::vector<std::vector<double>>& seqs) {
   return den > 0 ? static_cast<double>(num / den) : 0.0;
 }
 
-/// Barnes B1(N, mu): expected ratio of the N-sample variance to the Allan variance for sigma^2(tau) ~ tau^mu.
-double b1Theory(double N, int mu) {
-  if (mu == 0) return N * std::log(N) / (2 * (N - 1) * std::log(2.0));
-  return N * (1 - std::pow(N, mu)) / (2 * (N - 1) * (1 - std::pow(2.0, mu)));
-}
-
 }  // namespace
 
 int identifyNoiseAlpha(DevKind kind, const std::vector<PhaseSpan>& phases, int64_t m) {
@@ -366,40 +360,10 @@ int identifyNoiseAlpha(DevKind kind, const std::vector<PhaseSpan>& phases, int64
       }
     }
   }
-  // Too few points: B1 ratio on the frequency averages of the longest segment.
-  const std::vector<double>* longest = nullptr;
-  for (const auto& z : seqs)
-    if (!longest || z.size() > longest->size()) longest = &z;
-  if (!longest || longest->size() < 4) return kNoAlpha;
-  std::vector<double> y(longest->size() - 1);
-  for (size_t i = 0; i + 1 < longest->size(); ++i) y[i] = (*longest)[i + 1] - (*longest)[i];
-  const double N = static_cast<double>(y.size());
-  long double mean = 0;
-  for (double v : y) mean += v;
-  mean /= N;
-  long double ss = 0, av = 0;
-  for (size_t i = 0; i < y.size(); ++i) {
-    ss += (y[i] - mean) * (y[i] - mean);
-    if (i + 1 < y.size()) av += (y[i + 1] - y[i]) * static_cast<long double>(y[i + 1] - y[i]);
-  }
-  if (av <= 0) return kNoAlpha;
-  const double b1 = static_cast<double>((ss / (N - 1)) / (0.5L * av / (N - 1)));
-  // mu = 1 (RW FM, alpha -2), 0 (FFM, -1), -1 (WFM, 0), -2 (PM, 1 or 2); boundaries at geometric means.
-  const int mus[4] = {1, 0, -1, -2};
-  const int alphas[4] = {-2, -1, 0, 1};
-  int pick = 3;
-  for (int k = 0; k < 3; ++k) {
-    const double bound = std::sqrt(b1Theory(N, mus[k]) * b1Theory(N, mus[k + 1]));
-    if (b1 > bound) {
-      pick = k;
-      break;
-    }
-  }
-  if (alphas[pick] != 1) return alphas[pick];
-  // PM: white vs flicker PM from the lag-1 ACF of the few decimated phase points.
-  const double r1 = lag1Acf({*longest});
-  const double delta = r1 / (1 + r1);
-  return delta < 0.25 ? 2 : 1;
+  // Fewer than 30 points: no reliable identification here; the caller reuses the neighbouring point's alpha.
+  // (A B1-ratio fallback was tried: on PHASE.DAT and the OCXO record it disagreed with Stable32's choice at most
+  // such points and flipped between PM and FM from one m to the next, which made the EDF weights jump.)
+  return kNoAlpha;
 }
 
 }  // namespace gyro_allan
