@@ -191,21 +191,15 @@ void sumsMdev(const double* x, int64_t n, int64_t m, SegmentSums* s) {
 /// x*(N+j) = 2x(N) - x(N-j), j = 1..N-2; sum over i = 2..N-1 (1-based) of second differences at spacing m.
 void sumsTotdev(const double* x, int64_t n, int64_t m, SegmentSums* s) {
   if (n < 3 || m > n - 1) return;
-  // ext[k] holds x* at 1-based index k - (n-2) + 1 ... use offset: ext index e = i0 + (n - 2), i0 = 0-based index
-  const int64_t off = n - 2;
-  std::vector<double> ext(static_cast<size_t>(3 * n - 4));
-  for (int64_t i0 = -(n - 2); i0 < 2 * n - 2; ++i0) {
-    double v;
-    if (i0 < 0) v = 2.0 * x[0] - x[-i0];
-    else if (i0 < n) v = x[i0];
-    else v = 2.0 * x[n - 1] - x[2 * (n - 1) - i0];
-    ext[static_cast<size_t>(i0 + off)] = v;
-  }
+  // 0-based: x*(i) = 2 x(0) - x(-i) for i < 0, x(i) inside, 2 x(n-1) - x(2(n-1) - i) for i >= n.
+  const double left = 2.0 * x[0], right = 2.0 * x[n - 1];
+  auto ext = [&](int64_t i) -> double {
+    if (i < 0) return left - x[-i];
+    if (i >= n) return right - x[2 * (n - 1) - i];
+    return x[i];
+  };
   SquareAccumulator acc;
-  for (int64_t i0 = 1; i0 <= n - 2; ++i0) {
-    const double* e = ext.data() + off;
-    acc.add(e[i0 - m] - 2.0 * e[i0] + e[i0 + m]);
-  }
+  for (int64_t i0 = 1; i0 <= n - 2; ++i0) acc.add(ext(i0 - m) - 2.0 * x[i0] + ext(i0 + m));
   s->sumsq += acc.value();
   s->terms += n - 2;
 }

@@ -311,18 +311,30 @@ void fillConfidence(DeviationCurve* curve, double confidence) {
 // ------------------------------------------------------------------------------------------------ noise ID
 namespace {
 
-/// Pooled lag-1 autocorrelation of mean-removed sequences.
-double lag1Acf(const std::vector<std::vector<double>>& seqs) {
+/// Pooled lag-1 autocorrelation of the d-th differences (d = 0..2) of the phase decimated by m, each segment's
+/// sequence mean-removed; computed on the fly (no copy of the data).
+double lag1AcfOfDifferences(const std::vector<PhaseSpan>& phases, int64_t m, int d) {
   long double num = 0, den = 0;
-  for (const auto& z : seqs) {
-    if (z.size() < 2) continue;
+  for (const auto& p : phases) {
+    if (p.n < 2) continue;
+    const int64_t count = (p.n - 1) / m + 1 - d;  // points of the differenced sequence
+    if (count < 2) continue;
+    auto z = [&](int64_t i) -> long double {
+      const int64_t j = i * m;
+      if (d == 0) return p.x[j];
+      if (d == 1) return static_cast<long double>(p.x[j + m]) - p.x[j];
+      return static_cast<long double>(p.x[j + 2 * m]) - 2.0L * p.x[j + m] + p.x[j];
+    };
     long double mean = 0;
-    for (double v : z) mean += v;
-    mean /= z.size();
-    for (size_t i = 0; i < z.size(); ++i) {
-      const long double a = z[i] - mean;
-      den += a * a;
-      if (i + 1 < z.size()) num += a * (z[i + 1] - mean);
+    for (int64_t i = 0; i < count; ++i) mean += z(i);
+    mean /= count;
+    long double prev = z(0) - mean;
+    den += prev * prev;
+    for (int64_t i = 1; i < count; ++i) {
+      const long double cur = z(i) - mean;
+      den += cur * cur;
+      num += prev * cur;
+      prev = cur;
     }
   }
   return den > 0 ? static_cast<double>(num / den) : 0.0;
@@ -332,38 +344,24 @@ double lag1Acf(const std::vector<std::vector<double>>& seqs) {
 
 int identifyNoiseAlpha(DevKind kind, const std::vector<PhaseSpan>& phases, int64_t m) {
   (void)kind;
-  // Phase decimated by m (equivalent to frequency averaged over tau), per segment.
-  std::vector<std::vector<double>> seqs;
-  int64_t total = 0;
-  for (const auto& p : phases) {
-    if (p.n < 2) continue;
-    std::vector<double> z;
-    z.reserve(static_cast<size_t>((p.n - 1) / m + 1));
-    for (int64_t i = 0; i < p.n; i += m) z.push_back(p.x[i]);
-    total += static_cast<int64_t>(z.size());
-    seqs.push_back(std::move(z));
-  }
-  const int dmax = 2;
-  if (total >= 30) {
-    // Riley & Greenhall lag-1 ACF: difference until delta = r1/(1+r1) < 0.25; alpha = 2 - round(2 delta) - 2 d.
-    for (int d = 0;; ++d) {
-      const double r1 = lag1Acf(seqs);
-      const double delta = r1 / (1 + r1);
-      if (delta < 0.25 || d >= dmax) {
-        const int a = 2 - static_cast<int>(std::lround(2 * delta)) - 2 * d;
-        return std::max(-2, std::min(2, a));
-      }
-      for (auto& z : seqs) {
-        if (z.empty()) continue;
-        for (size_t i = 0; i + 1 < z.size(); ++i) z[i] = z[i + 1] - z[i];
-        z.pop_back();
-      }
-    }
-  }
+  int64_t total = 0;  // decimated phase points over all segments
+  for (const auto& p : phases)
+    if (p.n >= 2) total += (p.n - 1) / m + 1;
   // Fewer than 30 points: no reliable identification here; the caller reuses the neighbouring point's alpha.
   // (A B1-ratio fallback was tried: on PHASE.DAT and the OCXO record it disagreed with Stable32's choice at most
   // such points and flipped between PM and FM from one m to the next, which made the EDF weights jump.)
-  return kNoAlpha;
+  if (total < 30) return kNoAlpha;
+  // Riley & Greenhall lag-1 ACF: difference until delta = r1/(1+r1) < 0.25 (at most dmax = 2 times);
+  // alpha = 2 - round(2 delta) - 2 d (phase data), clamped to [-2, 2].
+  const int dmax = 2;
+  for (int d = 0;; ++d) {
+    const double r1 = lag1AcfOfDifferences(phases, m, d);
+    const double delta = r1 / (1 + r1);
+    if (delta < 0.25 || d >= dmax) {
+      const int a = 2 - static_cast<int>(std::lround(2 * delta)) - 2 * d;
+      return std::max(-2, std::min(2, a));
+    }
+  }
 }
 
 }  // namespace gyro_allan
