@@ -255,14 +255,22 @@ double edfForKind(DevKind kind, int alpha, int64_t m, int64_t n_phase) {
     case DevKind::Hdev: return greenhallEdf(alpha, 3, m, n_phase, false, false);
     case DevKind::Ohdev: return greenhallEdf(alpha, 3, m, n_phase, true, false);
     case DevKind::Totdev: {
-      // NIST SP1065 sec. 5.2.11: edf = b (T/tau) - c for FM noises; PM noises fall back to the OADEV EDF.
+      // TOTVAR is OAVAR plus the terms that reach into the reflected extension: its EDF is taken as the OADEV
+      // (Greenhall) EDF scaled by the term ratio (N-2)/(N-2m), capped for FM noises by the NIST SP1065
+      // sec. 5.2.11 empirical edf = b (T/tau) - c (white FM 1.50/0, flicker FM 1.17/0.22, RW FM 0.93/0.36),
+      // which alone overstates the EDF at small m (at m = 1 TOTVAR equals OAVAR exactly).
       const double t_over_tau = static_cast<double>(n_phase - 1) / m;
-      switch (alpha) {
-        case 0: return 1.50 * t_over_tau;
-        case -1: return std::max(0.0, 1.17 * t_over_tau - 0.22);
-        case -2: return std::max(0.0, 0.93 * t_over_tau - 0.36);
-        default: return greenhallEdf(alpha, 2, m, n_phase, true, false);
+      double cap = std::numeric_limits<double>::infinity();
+      if (alpha == 0) cap = 1.50 * t_over_tau;
+      if (alpha == -1) cap = 1.17 * t_over_tau - 0.22;
+      if (alpha == -2) cap = 0.93 * t_over_tau - 0.36;
+      double scaled = cap;
+      if (n_phase - 2 * m >= 2) {
+        const double e = greenhallEdf(alpha, 2, m, n_phase, true, false);
+        scaled = e * static_cast<double>(n_phase - 2) / static_cast<double>(n_phase - 2 * m);
       }
+      const double edf = std::min(scaled, cap);
+      return std::isfinite(edf) ? std::max(0.0, edf) : 0.0;
     }
   }
   return 0;
