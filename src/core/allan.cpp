@@ -164,26 +164,26 @@ void sumsHdev(const double* x, int64_t n, int64_t m, bool overlapping, SegmentSu
 }
 
 /// Modified Allan: terms j = 0..n-3m, each the sum over i=j..j+m-1 of second differences at spacing m. The window
-/// sum is updated in long double and recomputed from scratch every max(m, 4096) steps to bound drift.
+/// sum is updated in O(1) per step and recomputed from scratch every max(m, 4096) steps to bound rounding drift
+/// (each refresh costs m, so the total stays O(n)).
 void sumsMdev(const double* x, int64_t n, int64_t m, SegmentSums* s) {
   if (n < 3 * m) return;
   const int64_t nterms = n - 3 * m + 1;
-  auto d2 = [&](int64_t i) -> long double {
-    return static_cast<long double>(x[i + 2 * m]) - 2.0L * x[i + m] + static_cast<long double>(x[i]);
-  };
+  auto d2 = [&](int64_t i) -> double { return (x[i + 2 * m] - x[i + m]) - (x[i + m] - x[i]); };
   const int64_t refresh = std::max<int64_t>(m, 4096);
-  long double win = 0;
-  long double total = 0;
+  double win = 0;
+  SquareAccumulator acc;
   for (int64_t j = 0; j < nterms; ++j) {
     if (j % refresh == 0) {
-      win = 0;
-      for (int64_t i = j; i < j + m; ++i) win += d2(i);
+      long double w = 0;
+      for (int64_t i = j; i < j + m; ++i) w += d2(i);
+      win = static_cast<double>(w);
     } else {
       win += d2(j + m - 1) - d2(j - 1);
     }
-    total += win * win;
+    acc.add(win);
   }
-  s->sumsq += total;
+  s->sumsq += acc.value();
   s->terms += nterms;
 }
 

@@ -322,28 +322,42 @@ namespace {
 /// Pooled lag-1 autocorrelation of the d-th differences (d = 0..2) of the phase decimated by m, each segment's
 /// sequence mean-removed; computed on the fly (no copy of the data).
 double lag1AcfOfDifferences(const std::vector<PhaseSpan>& phases, int64_t m, int d) {
+  // double precision is ample for a statistic used to the nearest 0.25; block sums keep long sums accurate.
   long double num = 0, den = 0;
   for (const auto& p : phases) {
     if (p.n < 2) continue;
     const int64_t count = (p.n - 1) / m + 1 - d;  // points of the differenced sequence
     if (count < 2) continue;
-    auto z = [&](int64_t i) -> long double {
+    auto z = [&](int64_t i) -> double {
       const int64_t j = i * m;
       if (d == 0) return p.x[j];
-      if (d == 1) return static_cast<long double>(p.x[j + m]) - p.x[j];
-      return static_cast<long double>(p.x[j + 2 * m]) - 2.0L * p.x[j + m] + p.x[j];
+      if (d == 1) return p.x[j + m] - p.x[j];
+      return (p.x[j + 2 * m] - p.x[j + m]) - (p.x[j + m] - p.x[j]);
     };
-    long double mean = 0;
-    for (int64_t i = 0; i < count; ++i) mean += z(i);
-    mean /= count;
-    long double prev = z(0) - mean;
-    den += prev * prev;
-    for (int64_t i = 1; i < count; ++i) {
-      const long double cur = z(i) - mean;
-      den += cur * cur;
-      num += prev * cur;
-      prev = cur;
+    long double msum = 0;
+    double block = 0;
+    for (int64_t i = 0; i < count; ++i) {
+      block += z(i);
+      if ((i & 1023) == 1023) {
+        msum += block;
+        block = 0;
+      }
     }
+    const double mean = static_cast<double>((msum + block) / count);
+    double prev = z(0) - mean, bnum = 0, bden = prev * prev;
+    for (int64_t i = 1; i < count; ++i) {
+      const double cur = z(i) - mean;
+      bden += cur * cur;
+      bnum += prev * cur;
+      prev = cur;
+      if ((i & 1023) == 0) {
+        num += bnum;
+        den += bden;
+        bnum = bden = 0;
+      }
+    }
+    num += bnum;
+    den += bden;
   }
   return den > 0 ? static_cast<double>(num / den) : 0.0;
 }
