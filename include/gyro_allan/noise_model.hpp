@@ -40,9 +40,9 @@ struct ExtraTerm {
 struct FitOptions {
   std::array<bool, kNumTerms> enabled{{true, true, true, true, true}};
   int iterations = 6;          ///< reweighting iterations (weights from the current model)
-  double min_edf = 1.0;        ///< points with smaller EDF are not fitted
+  double min_edf = 3.0;        ///< points with smaller EDF are not fitted (their chi-squared is too skewed)
   double rms_min_edf = 30.0;   ///< points counted in rms_log10 need at least this EDF
-  double significance = 2.0;   ///< an IEEE term is kept only if its c = coef^2 is >= this many sigma above zero
+  double significance = 1.0;   ///< an IEEE term is kept only if its c = coef^2 is >= this many sigma above zero
   bool decorrelate = true;     ///< scale weights by the grid density (one octave ~ one independent AVAR estimate)
 };
 

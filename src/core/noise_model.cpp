@@ -246,6 +246,7 @@ FitResult fitNoiseModel(const DeviationCurve& curve, const FitOptions& options, 
   };
 
   solveIrls();
+  std::vector<int> eliminated;  // IEEE terms dropped for insignificance: they still count in the covariance
   // Backward elimination: drop the least significant IEEE term while any is below kSignificance sigma, then refit.
   for (size_t round = 0; round < all_cols.size(); ++round) {
     std::vector<int> pos;
@@ -270,6 +271,7 @@ FitResult fitNoiseModel(const DeviationCurve& curve, const FitOptions& options, 
     }
     if (worst < 0) break;
     active[static_cast<size_t>(worst)] = false;
+    eliminated.push_back(worst);
     c[worst] = 0;
     solveIrls();
   }
@@ -312,8 +314,14 @@ FitResult fitNoiseModel(const DeviationCurve& curve, const FitOptions& options, 
     }
   };
   if (!pos.empty()) {
+    // Sigmas come from the covariance of the supported terms together with the terms dropped for insignificance:
+    // a term the data cannot tell apart from a neighbour (bias instability vs rate random walk over a short record)
+    // was dropped, but the uncertainty it causes in its neighbour must stay in that neighbour's sigma.
+    std::vector<int> cols = pos;
+    for (int e : eliminated)
+      if (std::find(cols.begin(), cols.end(), e) == cols.end()) cols.push_back(e);
     Eigen::MatrixXd cov;
-    covariance(pos, &cov);
+    covariance(cols, &cov);
     for (size_t k = 0; k < pos.size(); ++k) setCoefficient(pos[k], c[pos[k]], cov(static_cast<int>(k), static_cast<int>(k)), true);
   }
   // Bounds of the terms the data does not support: the unconstrained estimate and its sigma when the term is added.
