@@ -171,17 +171,17 @@ void sumsMdev(const double* x, int64_t n, int64_t m, SegmentSums* s) {
   const int64_t nterms = n - 3 * m + 1;
   auto d2 = [&](int64_t i) -> double { return (x[i + 2 * m] - x[i + m]) - (x[i + m] - x[i]); };
   const int64_t refresh = std::max<int64_t>(m, 4096);
-  double win = 0;
   SquareAccumulator acc;
-  for (int64_t j = 0; j < nterms; ++j) {
-    if (j % refresh == 0) {
-      long double w = 0;
-      for (int64_t i = j; i < j + m; ++i) w += d2(i);
-      win = static_cast<double>(w);
-    } else {
-      win += d2(j + m - 1) - d2(j - 1);
-    }
+  for (int64_t start = 0; start < nterms; start += refresh) {
+    long double w = 0;
+    for (int64_t i = start; i < start + m; ++i) w += d2(i);
+    double win = static_cast<double>(w);
     acc.add(win);
+    const int64_t end = std::min(nterms, start + refresh);
+    for (int64_t j = start + 1; j < end; ++j) {
+      win += d2(j + m - 1) - d2(j - 1);
+      acc.add(win);
+    }
   }
   s->sumsq += acc.value();
   s->terms += nterms;

@@ -256,12 +256,11 @@ double edfForKind(DevKind kind, int alpha, int64_t m, int64_t n_phase) {
     case DevKind::Ohdev: return greenhallEdf(alpha, 3, m, n_phase, true, false);
     case DevKind::Totdev: {
       // TOTVAR is OAVAR plus the terms that reach into the reflected extension: its EDF is taken as the OADEV
-      // (Greenhall) EDF scaled by the term ratio (N-2)/(N-2m), capped for FM noises by the NIST SP1065
+      // (Greenhall) EDF scaled by the term ratio (N-2)/(N-2m), capped by the NIST SP1065
       // sec. 5.2.11 empirical edf = b (T/tau) - c (white FM 1.50/0, flicker FM 1.17/0.22, RW FM 0.93/0.36),
       // which alone overstates the EDF at small m (at m = 1 TOTVAR equals OAVAR exactly).
       const double t_over_tau = static_cast<double>(n_phase - 1) / m;
-      double cap = std::numeric_limits<double>::infinity();
-      if (alpha == 0) cap = 1.50 * t_over_tau;
+      double cap = 1.50 * t_over_tau;  // PM noises (no SP1065 row): the white FM row
       if (alpha == -1) cap = 1.17 * t_over_tau - 0.22;
       if (alpha == -2) cap = 0.93 * t_over_tau - 0.36;
       double scaled = cap;
