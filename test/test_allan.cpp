@@ -339,3 +339,9 @@ TEST(AllanValidation, BadInputsThrow) {
 }
 
 }  // namespace
+
+// catkin_add_gtest here links gtest without gtest_main.
+int main(int argc, char** argv) {
+  ::testing::InitGoogleTest(&argc, argv);
+  return RUN_ALL_TESTS();
+}

@@ -254,3 +254,9 @@ TEST(AllanReference, Adis16405Imu1OadevMatchesAvarPackage) {
 }
 
 }  // namespace
+
+// catkin_add_gtest here links gtest without gtest_main.
+int main(int argc, char** argv) {
+  ::testing::InitGoogleTest(&argc, argv);
+  return RUN_ALL_TESTS();
+}
