@@ -281,7 +281,7 @@ TEST(WaveletDenoise, SplitIsExactForEveryRuleAndScaling) {
   for (int i = 0; i < n; ++i) x[i] = std::sin(2 * M_PI * i / 500.0) + (i > 2500 ? 2.0 : 0.0) + 0.3 * g(rng);
   for (const std::string rule : {"sqtwolog", "rigrsure", "heursure", "minimaxi"}) {
     for (const std::string mode : {"soft", "hard"}) {
-      for (const std::string scal : {"one", "sln", "mln"}) {
+      for (const std::string scal : {"one", "sln", "mln", "sln_rms"}) {
         for (const std::string ext : {"symmetric", "periodization"}) {
           WdenOptions o;
           o.rule = parseThresholdRule(rule);

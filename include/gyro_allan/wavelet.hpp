@@ -72,12 +72,15 @@ std::vector<double> iswt(const std::vector<DwtCoeffs>& coeffs, const Wavelet& w)
 /// Threshold selection rules (MATLAB thselect names).
 enum class ThresholdRule { Sqtwolog, Rigrsure, Heursure, Minimaxi };
 enum class ThresholdMode { Soft, Hard };
-/// Noise scaling (MATLAB wden SCAL): none, single-level (level-1 MAD), multi-level (per-level MAD).
-enum class NoiseScaling { One, Sln, Mln };
+/// Noise scaling (MATLAB wden SCAL): none, single-level (level-1 MAD), multi-level (per-level MAD), plus an
+/// extension of ours, SlnRms ("sln_rms"): single-level with the RMS of the level-1 details instead of the MAD. The MAD
+/// sees only the gaps of a sparse pulse train (a pulse counter without dither at a constant rate), so "sln" would
+/// treat the quantization pulses as signal and keep them; the RMS counts them (docs/wavelet_split.md).
+enum class NoiseScaling { One, Sln, Mln, SlnRms };
 
 ThresholdRule parseThresholdRule(const std::string& name);   ///< "sqtwolog", "rigrsure", "heursure", "minimaxi"
 ThresholdMode parseThresholdMode(const std::string& name);   ///< "soft"/"s", "hard"/"h"
-NoiseScaling parseNoiseScaling(const std::string& name);     ///< "one", "sln", "mln"
+NoiseScaling parseNoiseScaling(const std::string& name);     ///< "one", "sln", "mln", "sln_rms"
 std::string thresholdRuleName(ThresholdRule rule);
 std::string thresholdModeName(ThresholdMode mode);
 std::string noiseScalingName(NoiseScaling scaling);

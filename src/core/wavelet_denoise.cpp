@@ -27,7 +27,8 @@ NoiseScaling parseNoiseScaling(const std::string& name) {
   if (name == "one") return NoiseScaling::One;
   if (name == "sln") return NoiseScaling::Sln;
   if (name == "mln") return NoiseScaling::Mln;
-  throw std::invalid_argument("unknown noise scaling '" + name + "' (one, sln, mln)");
+  if (name == "sln_rms") return NoiseScaling::SlnRms;
+  throw std::invalid_argument("unknown noise scaling '" + name + "' (one, sln, mln, sln_rms)");
 }
 
 std::string thresholdRuleName(ThresholdRule rule) {
@@ -47,6 +48,7 @@ std::string noiseScalingName(NoiseScaling scaling) {
     case NoiseScaling::One: return "one";
     case NoiseScaling::Sln: return "sln";
     case NoiseScaling::Mln: return "mln";
+    case NoiseScaling::SlnRms: return "sln_rms";
   }
   return "?";
 }
@@ -137,6 +139,12 @@ WdenResult wden(const std::vector<double>& x, const WdenOptions& options) {
 
   if (options.scaling == NoiseScaling::Sln) {
     const double s = wnoisest(detail(1));
+    for (int k = 1; k <= level; ++k) r.noise_sigma[k - 1] = s;
+  } else if (options.scaling == NoiseScaling::SlnRms) {
+    const auto& d1 = detail(1);
+    long double ss = 0;
+    for (double v : d1) ss += static_cast<long double>(v) * v;
+    const double s = static_cast<double>(std::sqrt(ss / static_cast<long double>(d1.size())));
     for (int k = 1; k <= level; ++k) r.noise_sigma[k - 1] = s;
   } else if (options.scaling == NoiseScaling::Mln) {
     for (int k = 1; k <= level; ++k) r.noise_sigma[k - 1] = wnoisest(detail(k));
