@@ -1,0 +1,96 @@
+// Closing the loop on the IEEE 952 fit: residual structure, tracing it to an effect the model lacks (sinusoid,
+// narrowband oscillation, Gauss-Markov, bias step, thermal drift, outliers) with evidence from the raw samples,
+// joint refit with that effect as an ExtraTerm, kept only when the BIC improves.
+#pragma once
+
+#include <map>
+#include <string>
+#include <vector>
+
+#include "gyro_allan/allan.hpp"
+#include "gyro_allan/noise_model.hpp"
+
+namespace gyro_allan {
+
+/// Normalized residual of a model AVAR curve: z = sqrt(edf/2) (var/model - 1) per used point, and tests for
+/// structure. Adjacent taus share data, so z values are correlated: the tests are descriptive, the decision to add
+/// an effect is taken by the BIC.
+struct ResidualAnalysis {
+  std::vector<double> tau;   ///< used points
+  std::vector<double> z;     ///< normalized residual (positive: data above the model)
+  double chi2_dof = 0;
+  int runs = 0;               ///< runs of same-sign z
+  double runs_expected = 0;   ///< Wald-Wolfowitz expectation for the observed numbers of signs
+  double runs_z = 0;          ///< (runs - expected) / sd: strongly negative = structure
+  double bump_z = 0;          ///< most significant same-sign stretch: sum z / sqrt(length), signed
+  double bump_tau_lo = 0, bump_tau_hi = 0;
+  double short_trend_z = 0;   ///< mean z of the 4 shortest-tau points * 2
+  double long_trend_z = 0;    ///< mean z of the 4 longest-tau points * 2
+  bool structured = false;    ///< runs_z < -3, |bump_z| > 5 or a trend beyond 4
+  std::string summary;        ///< one line for humans
+};
+
+ResidualAnalysis analyzeResidual(const DeviationCurve& curve, const std::vector<double>& model_var,
+                                 const std::vector<bool>& used, double chi2_dof);
+
+struct EffectParameter {
+  double value = 0;
+  double sigma = 0;
+};
+
+/// One effect added to the model.
+struct DetectedEffect {
+  std::string type;  ///< "sinusoid", "narrowband", "gauss_markov", "bias_step", "thermal_drift", "warmup", "outliers"
+  std::map<std::string, EffectParameter> parameters;  ///< e.g. frequency_hz, amplitude, tau_c_s, sigma, time_s, size
+  std::string evidence;   ///< what in the raw samples pointed to it
+  double delta_bic = 0;   ///< BIC improvement when it was added (positive = better)
+  ExtraTerm term;         ///< its AVAR basis (per unit c) as fitted
+};
+
+struct FitSummary {
+  double rms_log10 = 0;
+  double chi2_dof = 0;
+  double bic = 0;   ///< chi2_eff + k ln(n_eff) with EDF divided by the grid density (as the fit's decorrelate)
+  int n_params = 0;
+};
+
+struct ModelCheckOptions {
+  FitOptions fit;
+  int max_effects = 3;
+  double bic_margin = 10.0;         ///< required BIC improvement to keep an effect
+  double psd_min_prominence_db = 8.0;
+  int psd_max_peaks = 3;
+  double step_min_z = 6.0;          ///< block-mean difference in robust sigmas
+  double acf_min_z = 5.0;           ///< lag-1 correlation in units of 1/sqrt(n)
+  double thermal_min_z = 5.0;       ///< rate-vs-temperature slope in sigmas
+  double warmup_min_z = 8.0;        ///< warm-up amplitude in (white-residual) sigmas
+  double outlier_min_z = 10.0;      ///< robust sigmas from the local median
+  bool search_sinusoid = true, search_gauss_markov = true, search_bias_step = true, search_thermal = true,
+       search_outliers = true;
+};
+
+struct ModelCheck {
+  bool ok = false;
+  std::string message;
+  FitSummary before, after;
+  ResidualAnalysis residual_before, residual_after;
+  std::vector<DetectedEffect> effects;      ///< in the order they were added
+  std::vector<std::string> rejected;        ///< candidates examined and not kept, with the reason
+  FitResult fit_before, fit_after;          ///< fit_after: base coefficients + effects jointly
+  std::vector<ExtraTerm> extra;             ///< the ExtraTerms of fit_after (same order as effects)
+  std::vector<double> tau, measured_var, model_var_before, model_var_after;  ///< at the curve points
+};
+
+/// Copy of `curve` whose alpha and EDF come from a fitted model instead of the data's own noise identification:
+/// alpha of the IEEE term contributing most at each tau (Q: 2 white PM, N: 0, B: -1, K and R: -2), EDF from
+/// deviationEdf(curve.name, alpha, m, n_phase), confidence bounds refilled at `confidence`. Useful when the lag-1
+/// noise identification is unreliable (few long-tau terms); fit again on the result.
+DeviationCurve withModelEdf(const DeviationCurve& curve, const FitResult& fit, double confidence = 0.683);
+
+/// Runs the check. `curve` is the measured AVAR curve (oadev with EDF) of `rate` (sample interval tau0), `fit` its
+/// plain IEEE fit with opts.fit. temperature (optional) must have rate.size() samples. Throws
+/// std::invalid_argument on inconsistent input.
+ModelCheck checkModel(const std::vector<double>& rate, double tau0, const DeviationCurve& curve, const FitResult& fit,
+                      const ModelCheckOptions& opts, const std::vector<double>* temperature = nullptr);
+
+}  // namespace gyro_allan

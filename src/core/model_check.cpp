@@ -1,0 +1,785 @@
+// Model check: residual of the IEEE 952 fit, evidence for missing effects from the raw samples, joint refit, BIC gate.
+#include "gyro_allan/model_check.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <functional>
+#include <limits>
+#include <memory>
+#include <stdexcept>
+
+#include "gyro_allan/effects.hpp"
+#include "gyro_allan/spectral.hpp"
+
+namespace gyro_allan {
+namespace {
+
+std::string fmt(const char* f, double a) {
+  char buf[128];
+  std::snprintf(buf, sizeof buf, f, a);
+  return buf;
+}
+
+int countParams(const FitResult& f) {
+  int k = 0;
+  for (const auto& t : f.terms)
+    if (t.supported && t.value > 0) ++k;
+  for (double c : f.extra_c)
+    if (c > 0) ++k;
+  return k;
+}
+
+// How an extra term behaves: deterministic effects (sinusoid, step, warm-up, temperature-driven drift, impulses)
+// add an exactly known amount to the AVAR estimate and no estimation noise of their own; stochastic ones do.
+enum class Nature { Deterministic, GaussMarkov, Narrowband };
+struct TermInfo {
+  Nature nature = Nature::Deterministic;
+  double tc = 0;         // Gauss-Markov correlation time
+  double localized = 0;  // record length T when the effect sits at one place in the record (step, warm-up, shocks)
+};
+
+// A candidate effect: how to build its ExtraTerm from its nonlinear parameter, where to search it, and what to
+// report.
+struct Candidate {
+  std::string type;
+  std::string evidence;
+  std::function<ExtraTerm(double)> make;  // argument: the nonlinear parameter (ignored when there is none)
+  Nature nature = Nature::Deterministic;
+  bool localized = false;
+  double p0 = 0, p_lo = 0, p_hi = 0;      // start and log-grid search range (p_lo == p_hi: fixed)
+  int n_nonlinear = 0;                    // nonlinear parameters counted in the BIC
+  std::map<std::string, EffectParameter> fixed;  // parameters known from the evidence (frequency, time...)
+  std::string nonlinear_name;             // name of the searched parameter in the report
+  std::string amplitude_name;             // name of sqrt(c) in the report
+  double amplitude_sign = 1.0;
+  bool used = false;
+};
+
+// A model: fit plus the extra terms, and the curve weighted for it.
+struct Model {
+  bool ok = false;
+  FitResult fit;
+  std::vector<ExtraTerm> extra;
+  std::vector<TermInfo> info;
+  DeviationCurve weighted;   // curve with EDF from this model's stochastic part
+  int n_nonlinear = 0;
+  double bic = std::numeric_limits<double>::infinity();
+};
+
+struct Trial {
+  Model model;
+  double p = 0, p_sigma = 0;
+  ExtraTerm term;
+};
+
+// Stochastic and deterministic parts of a model at tau, and the power-law alpha of its dominant stochastic term
+// (Q: 2, N: 0, B: -1, K and R: -2; Gauss-Markov -2 below its correlation time, 0 above; narrowband 2).
+struct Parts {
+  double stochastic = 0, deterministic = 0;
+  double localized = 0;   // part of `deterministic` from localized effects
+  double record = 0;      // their record length
+  int alpha = 0;
+};
+Parts modelParts(const FitResult& fit, const std::vector<ExtraTerm>& extra, const std::vector<TermInfo>& info,
+                 double tau) {
+  static const int kAlpha[kNumTerms] = {2, 0, -1, -2, -2};
+  Parts p;
+  double best = -1;
+  auto stochastic = [&](double v, int alpha) {
+    p.stochastic += v;
+    if (v > best) {
+      best = v;
+      p.alpha = alpha;
+    }
+  };
+  for (int t = 0; t < kNumTerms; ++t) stochastic(termVariance(fit, t, tau), kAlpha[t]);
+  for (size_t e = 0; e < extra.size() && e < fit.extra_c.size(); ++e) {
+    const double v = fit.extra_c[e] * extra[e].basis(tau);
+    switch (info[e].nature) {
+      case Nature::Deterministic:
+        p.deterministic += v;
+        if (info[e].localized > 0) {
+          p.localized += v;
+          p.record = info[e].localized;
+        }
+        break;
+      case Nature::GaussMarkov: stochastic(v, tau < info[e].tc ? -2 : 0); break;
+      case Nature::Narrowband: stochastic(v, 2); break;
+    }
+  }
+  return p;
+}
+
+// Copy of the curve with alpha and EDF from the model's stochastic part.
+DeviationCurve weightFor(const DeviationCurve& curve, const FitResult& fit, const std::vector<ExtraTerm>& extra,
+                         const std::vector<TermInfo>& info) {
+  DeviationCurve w = curve;
+  for (auto& p : w.points) p.alpha = modelParts(fit, extra, info, p.tau).alpha;
+  fillConfidence(&w, 0.683);
+  return w;
+}
+
+// Number of used points within +-1/2 octave of each point (the fit's own decorrelation rule).
+std::vector<int> densityCounts(const DeviationCurve& curve, const std::vector<bool>& used) {
+  std::vector<int> count(curve.points.size(), 1);
+  for (size_t i = 0; i < curve.points.size(); ++i) {
+    int c = 0;
+    for (size_t j = 0; j < curve.points.size(); ++j) {
+      if (j >= used.size() || !used[j]) continue;
+      const double ratio = curve.points[j].tau / curve.points[i].tau;
+      if (ratio >= M_SQRT1_2 * (1 - 1e-12) && ratio < M_SQRT2 * (1 - 1e-12)) ++c;
+    }
+    count[i] = std::max(1, c);
+  }
+  return count;
+}
+
+// BIC from a Gaussian likelihood of the AVAR estimates: each estimate has variance 2 s (s + 2 d) / edf, with s the
+// model's stochastic and d its deterministic part at that tau (a deterministic effect shifts the estimate but adds
+// only a cross term to its scatter); each point counts 1/density (correlated neighbours), k ln(n_eff) penalty.
+double modelBic(const Model& m) {
+  const DeviationCurve& c = m.weighted;
+  const std::vector<int> count = densityCounts(c, m.fit.used);
+  double nll = 0, n_eff = 0;
+  for (size_t i = 0; i < c.points.size(); ++i) {
+    if (i >= m.fit.used.size() || !m.fit.used[i]) continue;
+    const auto& p = c.points[i];
+    if (!(p.edf > 0) || !(p.var > 0)) continue;
+    const Parts parts = modelParts(m.fit, m.extra, m.info, p.tau);
+    const double total = parts.stochastic + parts.deterministic;
+    if (!(total > 0)) continue;
+    const double s = std::max(parts.stochastic, 1e-6 * total);
+    // Cross term of noise and a deterministic effect: 4 s d / edf when the effect is spread over the record; a
+    // localized one (step, warm-up) meets only the noise of the few tau-windows around it, variance about
+    // 6 s d tau / (T - 2 tau).
+    const double spread = parts.deterministic - parts.localized;
+    double var = 2.0 * s * (s + 2.0 * spread) / p.edf;
+    if (parts.localized > 0) {
+      const double span = std::max(parts.record - 2.0 * p.tau, p.tau);
+      var += std::max(4.0 / p.edf, 6.0 * p.tau / span) * s * parts.localized;
+    }
+    const double r = p.var - total;
+    const double w = 1.0 / count[i];
+    nll += w * (r * r / var + std::log(var));
+    n_eff += w;
+  }
+  return nll + (countParams(m.fit) + m.n_nonlinear) * std::log(std::max(2.0, n_eff));
+}
+
+// Fits the model with extra terms, iterating the weights (EDF from the model's own stochastic part). Two starts:
+// the previous model's weighting, and the same model with its rate random walk and ramp removed (the weighting a
+// deterministic effect would give if it, not K or R, explains the long-tau rise); the better BIC wins.
+Model fitModel(const DeviationCurve& curve, const Model& previous, const FitOptions& fo,
+               const std::vector<ExtraTerm>& extra, const std::vector<TermInfo>& info, int n_nonlinear) {
+  auto from = [&](const DeviationCurve& start, const FitOptions& o) {
+    Model m;
+    m.extra = extra;
+    m.info = info;
+    m.n_nonlinear = n_nonlinear;
+    FitResult f = fitNoiseModel(start, o, extra);
+    if (!f.ok) return m;
+    m.weighted = weightFor(curve, f, extra, info);
+    m.fit = fitNoiseModel(m.weighted, o, extra);
+    if (!m.fit.ok) return m;
+    m.weighted = weightFor(curve, m.fit, extra, info);
+    m.ok = true;
+    m.bic = modelBic(m);
+    return m;
+  };
+  Model best = from(previous.weighted, fo);
+  const bool long_terms = previous.fit.terms[kRateRandomWalk].value > 0 || previous.fit.terms[kRateRamp].value > 0;
+  if (long_terms && !extra.empty()) {
+    FitResult shortTau = previous.fit;
+    shortTau.terms[kRateRandomWalk] = Coefficient{};
+    shortTau.terms[kRateRamp] = Coefficient{};
+    const DeviationCurve w = weightFor(curve, shortTau, previous.extra, previous.info);
+    Model b = from(w, fo);
+    if (b.ok && (!best.ok || b.bic < best.bic)) best = b;
+    // The new effect as the explanation of the long-tau rise instead of K and R: a bias step or a warm-up has
+    // nearly the shape of rate random walk at tau << T, so NNLS may hand everything to K. Fit without K and R,
+    // then once more with them enabled at those weights (bounds for K and R, or K back if the data need it).
+    FitOptions no_long = fo;
+    no_long.enabled[kRateRandomWalk] = false;
+    no_long.enabled[kRateRamp] = false;
+    Model c = from(w, no_long);
+    if (c.ok) {
+      Model full = c;
+      full.fit = fitNoiseModel(c.weighted, fo, extra);
+      if (full.fit.ok && !full.fit.extra_c.empty() && full.fit.extra_c.back() > 0) {
+        full.weighted = weightFor(curve, full.fit, extra, info);
+        full.bic = modelBic(full);
+        if (full.bic <= c.bic + 2.0) c = full;  // keep the bounds unless they cost the fit
+      }
+      // K and R left out: report them unsupported with a 1-sigma upper bound from the fit that had them.
+      for (int t : {kRateRandomWalk, kRateRamp}) {
+        if (c.fit.terms[t].supported || !full.fit.ok) continue;
+        const Coefficient& fc = full.fit.terms[t];
+        c.fit.terms[t] = Coefficient{0.0, fc.supported ? fc.value + fc.sigma : fc.sigma, false};
+      }
+      if (!best.ok || c.bic < best.bic) best = c;
+    }
+  }
+  return best;
+}
+
+// RMS of log10(measured/model ADEV) over a fixed set of points (the same for every model compared).
+double rmsLog10(const DeviationCurve& curve, const std::vector<double>& model, const std::vector<bool>& mask) {
+  double s = 0;
+  int n = 0;
+  for (size_t i = 0; i < curve.points.size(); ++i) {
+    if (!mask[i] || !(model[i] > 0) || !(curve.points[i].var > 0)) continue;
+    const double l = 0.5 * std::log10(curve.points[i].var / model[i]);
+    s += l * l;
+    ++n;
+  }
+  return n > 0 ? std::sqrt(s / n) : std::numeric_limits<double>::quiet_NaN();
+}
+
+}  // namespace
+
+DeviationCurve withModelEdf(const DeviationCurve& curve, const FitResult& fit, double confidence) {
+  if (fit.model_var.size() != curve.points.size())
+    throw std::invalid_argument("withModelEdf: fit does not belong to the curve (point counts differ)");
+  static const int kAlpha[kNumTerms] = {2, 0, -1, -2, -2};
+  DeviationCurve out = curve;
+  for (auto& p : out.points) {
+    int best = kAngleRandomWalk;
+    double best_v = -1;
+    for (int t = 0; t < kNumTerms; ++t) {
+      const double v = termVariance(fit, t, p.tau);
+      if (v > best_v) {
+        best_v = v;
+        best = t;
+      }
+    }
+    p.alpha = kAlpha[best];
+  }
+  fillConfidence(&out, confidence);
+  return out;
+}
+
+ResidualAnalysis analyzeResidual(const DeviationCurve& curve, const std::vector<double>& model_var,
+                                 const std::vector<bool>& used, double chi2_dof) {
+  ResidualAnalysis ra;
+  ra.chi2_dof = chi2_dof;
+  for (size_t i = 0; i < curve.points.size() && i < model_var.size() && i < used.size(); ++i) {
+    if (!used[i] || !(model_var[i] > 0)) continue;
+    const auto& p = curve.points[i];
+    double edf = p.edf;
+    if (!(edf > 0)) edf = static_cast<double>(curve.n_phase) / p.m - 1.0;
+    ra.tau.push_back(p.tau);
+    ra.z.push_back(std::sqrt(0.5 * edf) * (p.var / model_var[i] - 1.0));
+  }
+  const size_t n = ra.z.size();
+  if (n < 4) {
+    ra.summary = "too few points to test the residual";
+    return ra;
+  }
+  // Wald-Wolfowitz runs test on the signs.
+  double np = 0, nm = 0;
+  for (double z : ra.z) (z >= 0 ? np : nm) += 1;
+  ra.runs = 1;
+  for (size_t i = 1; i < n; ++i)
+    if ((ra.z[i] >= 0) != (ra.z[i - 1] >= 0)) ++ra.runs;
+  const double nn = np + nm;
+  ra.runs_expected = 2 * np * nm / nn + 1;
+  const double var = 2 * np * nm * (2 * np * nm - nn) / (nn * nn * (nn - 1));
+  ra.runs_z = var > 0 ? (ra.runs - ra.runs_expected) / std::sqrt(var) : 0.0;
+  // Most significant same-sign stretch.
+  size_t start = 0;
+  for (size_t i = 1; i <= n; ++i) {
+    if (i == n || (ra.z[i] >= 0) != (ra.z[start] >= 0)) {
+      double s = 0;
+      for (size_t j = start; j < i; ++j) s += ra.z[j];
+      const double bz = s / std::sqrt(static_cast<double>(i - start));
+      if (std::fabs(bz) > std::fabs(ra.bump_z)) {
+        ra.bump_z = bz;
+        ra.bump_tau_lo = ra.tau[start];
+        ra.bump_tau_hi = ra.tau[i - 1];
+      }
+      start = i;
+    }
+  }
+  const size_t k = std::min<size_t>(4, n / 2);
+  double s0 = 0, s1 = 0;
+  for (size_t i = 0; i < k; ++i) {
+    s0 += ra.z[i];
+    s1 += ra.z[n - 1 - i];
+  }
+  ra.short_trend_z = s0 / std::sqrt(static_cast<double>(k));
+  ra.long_trend_z = s1 / std::sqrt(static_cast<double>(k));
+  ra.structured = ra.runs_z < -3 || std::fabs(ra.bump_z) > 5 || std::fabs(ra.short_trend_z) > 4 ||
+                  std::fabs(ra.long_trend_z) > 4;
+  char buf[512];
+  std::snprintf(buf, sizeof buf,
+                "chi2/dof %.2f; %d runs of sign vs %.1f expected (z = %.1f); largest stretch %s the model at tau "
+                "%.3g-%.3g s (z = %.1f); short-tau z %.1f, long-tau z %.1f: %s",
+                chi2_dof, ra.runs, ra.runs_expected, ra.runs_z, ra.bump_z >= 0 ? "above" : "below", ra.bump_tau_lo,
+                ra.bump_tau_hi, ra.bump_z, ra.short_trend_z, ra.long_trend_z,
+                ra.structured ? "structured" : "no clear structure");
+  ra.summary = buf;
+  return ra;
+}
+
+ModelCheck checkModel(const std::vector<double>& rate, double tau0, const DeviationCurve& curve, const FitResult& fit,
+                      const ModelCheckOptions& opts, const std::vector<double>* temperature) {
+  if (!(tau0 > 0) || !std::isfinite(tau0)) throw std::invalid_argument("checkModel: tau0 must be positive");
+  if (rate.size() < 64) throw std::invalid_argument("checkModel: need at least 64 rate samples");
+  for (double v : rate)
+    if (!std::isfinite(v)) throw std::invalid_argument("checkModel: non-finite rate sample");
+  if (curve.points.empty()) throw std::invalid_argument("checkModel: empty Allan-variance curve");
+  if (fit.model_var.size() != curve.points.size())
+    throw std::invalid_argument("checkModel: fit does not belong to the curve (point counts differ)");
+  if (temperature && temperature->size() != rate.size())
+    throw std::invalid_argument("checkModel: temperature series length differs from the rate series");
+
+  ModelCheck mc;
+  mc.fit_before = fit;
+  for (const auto& p : curve.points) {
+    mc.tau.push_back(p.tau);
+    mc.measured_var.push_back(p.var);
+  }
+  if (!fit.ok) {
+    mc.message = "base fit failed: " + fit.message;
+    mc.fit_after = fit;
+    mc.model_var_before = mc.model_var_after = fit.model_var;
+    return mc;
+  }
+  // The plain IEEE model again, with EDF from its own noise terms (not from the data's noise identification), so
+  // that it is weighted exactly like the models with effects it is compared with.
+  Model given;
+  given.fit = fit;
+  given.weighted = weightFor(curve, fit, {}, {});
+  const Model base = fitModel(curve, given, opts.fit, {}, {}, 0);
+  if (!base.ok) {
+    mc.message = "base refit failed: " + base.fit.message;
+    mc.fit_after = fit;
+    mc.model_var_before = mc.model_var_after = fit.model_var;
+    return mc;
+  }
+  std::vector<bool> rms_mask(curve.points.size(), false);
+  for (size_t i = 0; i < curve.points.size(); ++i)
+    rms_mask[i] = base.weighted.points[i].edf >= opts.fit.rms_min_edf && curve.points[i].var > 0;
+  mc.fit_before = base.fit;
+  mc.model_var_before = base.fit.model_var;
+  mc.before.rms_log10 = rmsLog10(curve, base.fit.model_var, rms_mask);
+  mc.before.chi2_dof = base.fit.chi2_dof;
+  mc.before.bic = base.bic;
+  mc.before.n_params = countParams(base.fit);
+  mc.residual_before = analyzeResidual(base.weighted, base.fit.model_var, base.fit.used, base.fit.chi2_dof);
+
+  const int64_t n = static_cast<int64_t>(rate.size());
+  const double T = n * tau0;
+  const double fs = 1.0 / tau0;
+  std::vector<Candidate> cands;
+
+  // ---- Sinusoid / narrowband oscillation: Welch PSD peaks at a fine and a coarse resolution.
+  if (opts.search_sinusoid && n >= 256) {
+    auto pow2Below = [](int64_t v) {
+      int64_t p = 1;
+      while (p * 2 <= v) p *= 2;
+      return p;
+    };
+    const int64_t fine = std::min<int64_t>(pow2Below(n / 8), 65536);
+    const int64_t coarse = std::min<int64_t>(1024, pow2Below(n / 32));
+    std::vector<SpectralPeak> all;
+    for (int64_t seg : {fine, coarse}) {
+      if (seg < 64) continue;
+      const Psd psd = welchPsd(rate, fs, seg, 0.5);
+      for (const auto& pk : findPsdPeaks(psd, opts.psd_min_prominence_db, opts.psd_max_peaks)) all.push_back(pk);
+    }
+    // Merge duplicates: the same feature found at both resolutions. A feature no wider than 4 bins of the PSD it
+    // was found in is a line (sinusoid); wider ones are narrowband oscillations.
+    std::sort(all.begin(), all.end(), [](const SpectralPeak& a, const SpectralPeak& b) { return a.df < b.df; });
+    std::vector<SpectralPeak> kept;
+    for (const auto& pk : all) {
+      bool dup = false;
+      for (auto& k : kept) {
+        const double sep = std::fabs(k.frequency_hz - pk.frequency_hz);
+        if (sep <= std::max({k.bandwidth_hz, pk.bandwidth_hz, 2 * pk.df})) {
+          dup = true;
+          // A fine-resolution detection that is broad in its own bins is better described by the coarse one.
+          if (k.bandwidth_hz > 4 * k.df && pk.bandwidth_hz > 4 * k.df) k = pk;
+          break;
+        }
+      }
+      if (!dup) kept.push_back(pk);
+    }
+    for (const auto& pk : kept) {
+      if (pk.frequency_hz <= 0 || pk.frequency_hz >= fs / 2) continue;
+      Candidate c;
+      const bool line = pk.bandwidth_hz <= 4 * pk.df;
+      c.type = line ? "sinusoid" : "narrowband";
+      c.nature = line ? Nature::Deterministic : Nature::Narrowband;
+      char buf[256];
+      std::snprintf(buf, sizeof buf,
+                    "PSD peak %.1f dB above the local median at %.4g Hz (%s %.3g Hz, %lld-sample Welch segments, "
+                    "amplitude %.3g)",
+                    pk.prominence_db, pk.frequency_hz, line ? "bin width" : "half-power width",
+                    line ? pk.df : pk.bandwidth_hz, static_cast<long long>(std::llround(fs / pk.df)), pk.amplitude);
+      c.evidence = buf;
+      const double f0 = pk.frequency_hz;
+      const double bw = line ? 0.0 : pk.bandwidth_hz;
+      const double t0 = tau0;
+      c.make = [f0, bw, t0](double) {
+        ExtraTerm e;
+        if (bw <= 0) {
+          e.name = "sinusoid";
+          e.basis = [f0, t0](double tau) { return sinusoidAvar(tau, f0, t0); };
+        } else {
+          e.name = "narrowband";
+          const double lo = std::max(1e-9, f0 - bw / 2), hi = f0 + bw / 2;
+          e.basis = [lo, hi, t0](double tau) {
+            const int k = 33;
+            double s = 0;
+            for (int i = 0; i < k; ++i) s += sinusoidAvar(tau, lo + (hi - lo) * (i + 0.5) / k, t0);
+            return s / k;
+          };
+        }
+        return e;
+      };
+      c.fixed["frequency_hz"] = {f0, line ? pk.df / 2 : pk.bandwidth_hz / 2};
+      if (!line) c.fixed["bandwidth_hz"] = {pk.bandwidth_hz, pk.df};
+      c.amplitude_name = "amplitude";
+      c.n_nonlinear = line ? 1 : 2;
+      cands.push_back(c);
+    }
+  }
+
+  // ---- Gauss-Markov: exponential autocorrelation of the raw samples and of block means.
+  if (opts.search_gauss_markov) {
+    struct Scale {
+      int64_t block;
+      std::string what;
+    };
+    const int64_t big = std::max<int64_t>(2, n / 4000);
+    for (const Scale& sc : {Scale{1, "samples"}, Scale{big, "block means"}}) {
+      const std::vector<double> x = sc.block == 1 ? rate : blockMeans(rate, sc.block);
+      const int64_t nx = static_cast<int64_t>(x.size());
+      if (nx < 200) continue;
+      const std::vector<double> ac = autocovariance(x, std::min<int64_t>(nx / 10, 400));
+      if (!(ac[0] > 0)) continue;
+      std::vector<double> rho(ac.size());
+      for (size_t k = 0; k < ac.size(); ++k) rho[k] = ac[k] / ac[0];
+      const double noise = 1.0 / std::sqrt(static_cast<double>(nx));
+      if (rho[1] < opts.acf_min_z * noise) continue;
+      const double dt = sc.block * tau0;
+      const ExponentialAcfFit ef = fitExponentialAcf(rho, dt, 3 * noise);
+      if (!ef.ok || !(ef.tc > 0)) continue;
+      Candidate c;
+      c.type = "gauss_markov";
+      c.nature = Nature::GaussMarkov;
+      char buf[256];
+      std::snprintf(buf, sizeof buf,
+                    "autocorrelation of %s (%.3g s) decays exponentially: lag-1 %.3f (white: 0 +- %.4f), correlation "
+                    "time %.3g s over %d lags (r2 %.2f)",
+                    sc.what.c_str(), dt, rho[1], noise, ef.tc, ef.lags, ef.r2);
+      c.evidence = buf;
+      const double t0 = tau0;
+      c.make = [t0](double tc) {
+        ExtraTerm e;
+        e.name = "gauss_markov";
+        e.basis = [tc, t0](double tau) { return gaussMarkovAvar(tau, tc, t0); };
+        return e;
+      };
+      c.p0 = ef.tc;
+      c.p_lo = std::max(tau0 / 4, ef.tc / 6);
+      c.p_hi = std::min(T / 10, ef.tc * 6);  // >= 10 correlation times in the record to tell it from K
+      if (!(c.p_hi > c.p_lo)) continue;
+      c.n_nonlinear = 1;
+      c.nonlinear_name = "tau_c_s";
+      c.amplitude_name = "sigma";
+      cands.push_back(c);
+    }
+  }
+
+  // ---- Bias step: block-mean differences at the averaging time of the curve's minimum.
+  if (opts.search_bias_step) {
+    double tau_min = curve.points.front().tau, dev_min = std::numeric_limits<double>::infinity();
+    for (const auto& p : curve.points)
+      if (p.var > 0 && p.var < dev_min) {
+        dev_min = p.var;
+        tau_min = p.tau;
+      }
+    std::vector<int64_t> blocks;
+    blocks.push_back(std::clamp<int64_t>(static_cast<int64_t>(tau_min / tau0), std::max<int64_t>(1, n / 1000),
+                                         std::max<int64_t>(1, n / 50)));
+    blocks.push_back(std::max<int64_t>(1, n / 200));
+    MeanShift best;
+    int64_t best_block = 0;
+    for (int64_t b : blocks) {
+      const MeanShift s = detectMeanShift(rate, b, opts.step_min_z);
+      if (s.found && s.z > best.z) {
+        best = s;
+        best_block = b;
+      }
+    }
+    if (best.found) {
+      // Location uncertainty of a step in white noise: about (sigma_sample / size)^2 samples.
+      std::vector<double> d(std::min<int64_t>(n - 1, 200000));
+      for (size_t i = 0; i < d.size(); ++i) d[i] = std::fabs(rate[i + 1] - rate[i]);
+      std::nth_element(d.begin(), d.begin() + d.size() / 2, d.end());
+      const double s_sample = d[d.size() / 2] / 0.6745 / std::sqrt(2.0);
+      const double ts = best.index * tau0;
+      const double ts_sigma = tau0 * std::max(1.0, (s_sample / best.size) * (s_sample / best.size));
+      Candidate c;
+      c.type = "bias_step";
+      c.localized = true;
+      char buf[256];
+      std::snprintf(buf, sizeof buf,
+                    "difference of %.3g s block means %.1f robust sigmas at t = %.4g s; least-squares step %.3g",
+                    best_block * tau0, best.z, ts, best.size);
+      c.evidence = buf;
+      c.make = [ts, T](double) {
+        ExtraTerm e;
+        e.name = "bias_step";
+        e.basis = [ts, T](double tau) { return biasStepAvar(tau, ts, T); };
+        return e;
+      };
+      c.fixed["time_s"] = {ts, ts_sigma};
+      c.n_nonlinear = 1;
+      c.amplitude_name = "size";
+      c.amplitude_sign = best.size >= 0 ? 1.0 : -1.0;
+      cands.push_back(c);
+    }
+  }
+
+  // ---- Thermal drift: regression on temperature when given, otherwise a warm-up exponential.
+  if (opts.search_thermal) {
+    const int64_t b = std::max<int64_t>(1, n / 200);
+    const std::vector<double> rb = blockMeans(rate, b);
+    if (temperature && rb.size() >= 8) {
+      const std::vector<double> tb = blockMeans(*temperature, b);
+      bool varies = false;
+      for (double v : tb) varies = varies || std::fabs(v - tb.front()) > 0;
+      if (varies) {
+        const LinearRegression lr = linearRegression(tb, rb);
+        const double z = lr.slope_sigma > 0 ? std::fabs(lr.slope) / lr.slope_sigma : 0.0;
+        if (z >= opts.thermal_min_z) {
+          // Empirical basis: the AVAR of the temperature series itself, at the curve's factors (log-log interpolated
+          // elsewhere); c = (rate per degC)^2.
+          auto tab = std::make_shared<std::vector<std::pair<double, double>>>();
+          for (const auto& p : curve.points) {
+            const int64_t m = std::max<int64_t>(1, p.m > 0 ? p.m : static_cast<int64_t>(std::llround(p.tau / tau0)));
+            tab->push_back({p.tau, overlappingAvarAt(*temperature, m)});
+          }
+          Candidate c;
+          c.type = "thermal_drift";
+          char buf[256];
+          std::snprintf(buf, sizeof buf,
+                        "rate vs temperature over %.3g s blocks: slope %.3g +- %.2g (rad/s)/degC, r = %.2f", b * tau0,
+                        lr.slope, lr.slope_sigma, lr.r);
+          c.evidence = buf;
+          c.make = [tab](double) {
+            ExtraTerm e;
+            e.name = "thermal_drift";
+            e.basis = [tab](double tau) {
+              const auto& t = *tab;
+              if (t.empty()) return 0.0;
+              if (tau <= t.front().first) return t.front().second;
+              if (tau >= t.back().first) return t.back().second;
+              for (size_t i = 1; i < t.size(); ++i)
+                if (tau <= t[i].first) {
+                  const double a = t[i - 1].second, bv = t[i].second;
+                  if (!(a > 0) || !(bv > 0)) return a + (bv - a) * (tau - t[i - 1].first) / (t[i].first - t[i - 1].first);
+                  const double w = std::log(tau / t[i - 1].first) / std::log(t[i].first / t[i - 1].first);
+                  return std::exp(std::log(a) + w * (std::log(bv) - std::log(a)));
+                }
+              return t.back().second;
+            };
+            return e;
+          };
+          c.amplitude_name = "coefficient_per_degc";
+          c.amplitude_sign = lr.slope >= 0 ? 1.0 : -1.0;
+          cands.push_back(c);
+        }
+      }
+    } else if (rb.size() >= 16) {
+      const WarmupFit wf = fitWarmup(rb, b * tau0, T / 200, 2 * T);
+      // White-noise sigma of the block means from their first differences: a random walk or flicker makes the fit's
+      // own a_sigma optimistic, so the evidence threshold is high and the BIC decides.
+      if (wf.ok && wf.a_sigma > 0 && std::fabs(wf.a) / wf.a_sigma >= opts.warmup_min_z) {
+        Candidate c;
+        c.type = "warmup";
+        c.localized = true;
+        char buf[256];
+        std::snprintf(buf, sizeof buf,
+                      "%.3g s block means follow a (1 - exp(-t/theta)): a = %.3g +- %.2g, theta = %.3g s", b * tau0,
+                      wf.a, wf.a_sigma, wf.theta);
+        c.evidence = buf;
+        c.make = [T](double theta) {
+          ExtraTerm e;
+          e.name = "warmup";
+          e.basis = [theta, T](double tau) { return warmupAvar(tau, theta, T); };
+          return e;
+        };
+        c.p0 = wf.theta;
+        c.p_lo = wf.theta / 4;
+        c.p_hi = wf.theta * 4;
+        c.n_nonlinear = 1;
+        c.nonlinear_name = "theta_s";
+        c.amplitude_name = "amplitude";
+        c.amplitude_sign = wf.a >= 0 ? 1.0 : -1.0;
+        cands.push_back(c);
+      }
+    }
+  }
+
+  // ---- Impulsive outliers (shocks).
+  if (opts.search_outliers) {
+    const Outliers o = detectOutliers(rate, tau0, opts.outlier_min_z);
+    if (!o.index.empty() && static_cast<int64_t>(o.index.size()) * 1000 < n) {
+      Candidate c;
+      c.type = "outliers";
+      c.localized = true;
+      char buf[256];
+      std::snprintf(buf, sizeof buf, "%zu samples beyond %.0f robust sigmas (%.3g) of their local median, first at t = %.4g s",
+                    o.index.size(), opts.outlier_min_z, o.robust_sigma, o.index.front() * tau0);
+      c.evidence = buf;
+      c.make = [T](double) {
+        ExtraTerm e;
+        e.name = "outliers";
+        e.basis = [T](double tau) { return impulseAvar(tau, T); };
+        return e;
+      };
+      c.fixed["count"] = {static_cast<double>(o.index.size()), 0.0};
+      c.amplitude_name = "rss_area";
+      cands.push_back(c);
+    }
+  }
+
+  // ---- Greedy forward selection with the BIC.
+  Model current = base;
+  auto evaluate = [&](const Candidate& c, double p) {
+    Trial t;
+    t.p = p;
+    t.term = c.make(p);
+    std::vector<ExtraTerm> ex = current.extra;
+    std::vector<TermInfo> info = current.info;
+    ex.push_back(t.term);
+    TermInfo ti;
+    ti.nature = c.nature;
+    ti.tc = p;
+    ti.localized = c.localized ? T : 0.0;
+    info.push_back(ti);
+    t.model = fitModel(curve, current, opts.fit, ex, info, current.n_nonlinear + c.n_nonlinear);
+    return t;
+  };
+  for (int round = 0; round < opts.max_effects; ++round) {
+    Trial best;
+    int best_i = -1;
+    for (size_t ci = 0; ci < cands.size(); ++ci) {
+      Candidate& c = cands[ci];
+      if (c.used) continue;
+      Trial bt;
+      if (c.p_hi > c.p_lo) {
+        // Log grid, then golden-section refinement between the best point's neighbours.
+        const int ng = 21;
+        std::vector<double> grid(ng);
+        std::vector<Trial> trials(ng);
+        int bi = -1;
+        for (int g = 0; g < ng; ++g) {
+          grid[g] = c.p_lo * std::pow(c.p_hi / c.p_lo, static_cast<double>(g) / (ng - 1));
+          trials[g] = evaluate(c, grid[g]);
+          if (trials[g].model.ok && (bi < 0 || trials[g].model.bic < trials[bi].model.bic)) bi = g;
+        }
+        if (bi < 0) continue;
+        double a = std::log(grid[std::max(0, bi - 1)]), b = std::log(grid[std::min(ng - 1, bi + 1)]);
+        bt = trials[bi];
+        const double gr = 0.5 * (std::sqrt(5.0) - 1.0);
+        double x1 = b - gr * (b - a), x2 = a + gr * (b - a);
+        Trial t1 = evaluate(c, std::exp(x1)), t2 = evaluate(c, std::exp(x2));
+        for (int it = 0; it < 12; ++it) {
+          if (t1.model.bic < t2.model.bic) {
+            b = x2;
+            x2 = x1;
+            t2 = t1;
+            x1 = b - gr * (b - a);
+            t1 = evaluate(c, std::exp(x1));
+          } else {
+            a = x1;
+            x1 = x2;
+            t1 = t2;
+            x2 = a + gr * (b - a);
+            t2 = evaluate(c, std::exp(x2));
+          }
+        }
+        const Trial& tb = t1.model.bic < t2.model.bic ? t1 : t2;
+        if (tb.model.ok && tb.model.bic < bt.model.bic) bt = tb;
+        // Sigma of the parameter from the curvature of -2 ln L (= BIC up to a constant) in ln p, inflated by the
+        // reduced chi2 when it exceeds 1.
+        const double h = 0.05;
+        const Trial tm = evaluate(c, bt.p * std::exp(-h)), tp = evaluate(c, bt.p * std::exp(h));
+        const double curv = (tm.model.bic + tp.model.bic - 2 * bt.model.bic) / (h * h);
+        const double infl = std::max(1.0, bt.model.fit.chi2_dof);
+        bt.p_sigma = (curv > 0 && tm.model.ok && tp.model.ok) ? bt.p * std::sqrt(2.0 / curv * infl) : bt.p;
+      } else {
+        bt = evaluate(c, c.p0);
+      }
+      if (!bt.model.ok) continue;
+      // The effect must be present in the refit (NNLS may put it at zero).
+      const double cval = bt.model.fit.extra_c.empty() ? 0.0 : bt.model.fit.extra_c.back();
+      if (!(cval > 0)) {
+        c.used = true;
+        mc.rejected.push_back(c.type + ": the refit gives it zero amplitude (" + c.evidence + ")");
+        continue;
+      }
+      if (best_i < 0 || bt.model.bic < best.model.bic) {
+        best = bt;
+        best_i = static_cast<int>(ci);
+      }
+    }
+    if (best_i < 0) break;
+    Candidate& c = cands[static_cast<size_t>(best_i)];
+    const double gain = current.bic - best.model.bic;
+    if (gain < opts.bic_margin) {
+      mc.rejected.push_back(c.type + ": BIC improves by only " + fmt("%.1f", gain) + " (< " +
+                            fmt("%.0f", opts.bic_margin) + "; " + c.evidence + ")");
+      c.used = true;
+      // The best one failed: the others are worse by construction.
+      for (auto& o : cands)
+        if (!o.used) {
+          o.used = true;
+          mc.rejected.push_back(o.type + ": not better than the rejected " + c.type + " (" + o.evidence + ")");
+        }
+      break;
+    }
+    c.used = true;
+    DetectedEffect eff;
+    eff.type = c.type;
+    eff.evidence = c.evidence;
+    eff.delta_bic = gain;
+    eff.term = best.term;
+    eff.parameters = c.fixed;
+    if (!c.nonlinear_name.empty()) eff.parameters[c.nonlinear_name] = {best.p, best.p_sigma};
+    eff.parameters[c.amplitude_name] = {c.amplitude_sign, 0.0};  // filled below from the joint refit
+    mc.effects.push_back(eff);
+    current = best.model;
+  }
+  for (const auto& c : cands)
+    if (!c.used) mc.rejected.push_back(c.type + ": not examined (effect limit reached; " + c.evidence + ")");
+  // Amplitudes from the final joint refit (signs from the evidence).
+  for (size_t e = 0; e < mc.effects.size() && e < current.fit.extra.size(); ++e) {
+    for (auto& kv : mc.effects[e].parameters) {
+      const std::string& k = kv.first;
+      if (k == "amplitude" || k == "sigma" || k == "size" || k == "coefficient_per_degc" || k == "rss_area") {
+        const double sign = kv.second.value < 0 ? -1.0 : 1.0;
+        kv.second = {sign * current.fit.extra[e].value, current.fit.extra[e].sigma};
+      }
+    }
+  }
+
+  mc.fit_after = current.fit;
+  mc.extra = current.extra;
+  mc.model_var_after = current.fit.model_var;
+  mc.after.rms_log10 = rmsLog10(curve, current.fit.model_var, rms_mask);
+  mc.after.chi2_dof = current.fit.chi2_dof;
+  mc.after.bic = current.bic;
+  mc.after.n_params = countParams(current.fit) + current.n_nonlinear;
+  mc.residual_after = analyzeResidual(current.weighted, current.fit.model_var, current.fit.used, current.fit.chi2_dof);
+  mc.ok = true;
+  return mc;
+}
+
+}  // namespace gyro_allan
