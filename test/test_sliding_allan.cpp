@@ -277,6 +277,7 @@ TEST(SlidingAllan, CurveHasEdfAndConfidence) {
   SlidingAllanOptions o;
   o.tau0 = 0.01;
   o.window_samples = 4000;
+  o.alpha_from_slope = true;
   std::string err;
   ASSERT_TRUE(parseTauGrid("octave", &o.grid, &err)) << err;
   SlidingAllan s(o);

@@ -16,7 +16,8 @@ struct SlidingAllanOptions {
   double confidence = 0.683;     ///< two-sided confidence of dev_lo/dev_hi
   bool compute_edf = true;       ///< fill edf/dev_lo/dev_hi (deviationEdf via fillConfidence)
   int alpha = 0;                 ///< power-law exponent for the EDF when alpha_from_slope is false (0: white rate noise)
-  bool alpha_from_slope = true;  ///< pick alpha per point from the local log-log AVAR slope (clamped to -2..2)
+  bool alpha_from_slope = false;  ///< pick alpha per point from the least-squares log-log AVAR slope over +-1/2
+                                  ///< decade (noisy at long tau: a spurious white-PM pick inflates the EDF)
   int recompute_steps = 2;       ///< exact-recompute cursor steps per sample (>= 2); one full recompute every
                                  ///< ~window/(steps-1) samples
 };

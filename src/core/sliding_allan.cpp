@@ -198,14 +198,29 @@ DeviationCurve SlidingAllan::curve() const {
     c.points.push_back(p);
   }
   if (opt_.alpha_from_slope && c.points.size() >= 2) {
+    // Least-squares log-log slope over the points within half a decade of tau on each side (neighbouring points
+    // alone are too noisy at long tau), mapped to the power-law exponent of the dominant noise.
     const size_t n = c.points.size();
+    std::vector<double> lt(n), lv(n);
     for (size_t j = 0; j < n; ++j) {
-      const size_t a = j == 0 ? 0 : j - 1, b = j + 1 == n ? n - 1 : j + 1;
-      const auto& pa = c.points[a];
-      const auto& pb = c.points[b];
+      lt[j] = std::log10(c.points[j].tau);
+      lv[j] = c.points[j].var > 0 ? std::log10(c.points[j].var) : std::nan("");
+    }
+    for (size_t j = 0; j < n; ++j) {
+      double sx = 0, sy = 0, sxx = 0, sxy = 0;
+      int k = 0;
+      for (size_t i = 0; i < n; ++i) {
+        if (std::fabs(lt[i] - lt[j]) > 0.5 || !std::isfinite(lv[i])) continue;
+        sx += lt[i];
+        sy += lv[i];
+        sxx += lt[i] * lt[i];
+        sxy += lt[i] * lv[i];
+        ++k;
+      }
       int alpha = opt_.alpha;
-      if (pa.var > 0 && pb.var > 0) {
-        const double mu = std::log(pb.var / pa.var) / std::log(pb.tau / pa.tau);
+      const double den = k * sxx - sx * sx;
+      if (k >= 2 && den > 0) {
+        const double mu = (k * sxy - sx * sy) / den;
         if (mu < -1.5) alpha = 2;        // white (quantization) angle noise
         else if (mu < -0.5) alpha = 0;   // white rate noise (ARW)
         else if (mu < 0.5) alpha = -1;   // flicker rate noise (bias instability)

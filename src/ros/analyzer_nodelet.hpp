@@ -1,0 +1,149 @@
+// Online gyro noise analyzer nodelet: sliding-window overlapping Allan variance, per-hop IEEE 952 fit, diagnostics.
+#pragma once
+
+#include <array>
+#include <atomic>
+#include <condition_variable>
+#include <deque>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <diagnostic_updater/diagnostic_updater.h>
+#include <diagnostic_updater/update_functions.h>
+#include <geometry_msgs/Vector3Stamped.h>
+#include <nodelet/nodelet.h>
+#include <ros/ros.h>
+#include <sensor_msgs/Imu.h>
+#include <sensor_msgs/Temperature.h>
+
+#include "gyro_allan/allan.hpp"
+#include "gyro_allan/noise_model.hpp"
+#include "gyro_allan/sliding_allan.hpp"
+
+namespace gyro_allan {
+
+/// Private parameters after validation (defaults here are the documented defaults).
+struct AnalyzerParams {
+  double window_s = 3600;          ///< window length [s]
+  double hop_s = 10;               ///< publish period, in input-stamp time [s]
+  std::string tau_grid = "log:10";
+  TauGrid grid;
+  std::string method = "joint_fit";
+  std::string input = "auto";      ///< imu | angle | auto (first topic that delivers)
+  std::string angle_mode = "accumulated";  ///< accumulated | increment
+  double expected_rate_hz = 0;     ///< 0: learn from the median interval of the first learn_samples intervals
+  int learn_samples = 200;
+  double gap_factor = 1.5;         ///< an interval > gap_factor / rate starts a new segment
+  double rate_tolerance = 0.1;     ///< relative deviation of the median interval that counts as a rate change
+  double saturation_limit = 0;     ///< |value| >= limit is saturated (0: only the repeated-extreme rule)
+  int saturation_run = 5;          ///< identical extreme values in a row that count as saturated (0: off)
+  int64_t min_fit_samples = 1000;  ///< samples in the window before the first fit
+  double confidence = 0.683;
+  int recompute_steps = 2;
+  bool publish_curves = true;
+  double recent_s = 10;            ///< diagnostics: a problem is "recent" for this long (ROS time) [s]
+  double error_fraction = 0.01;    ///< diagnostics: recent bad samples / expected samples above which ERROR
+  double rms_log10_warn = 0.1, rms_log10_error = 0.3;
+  std::array<double, kNumTerms> spec_warn{{0, 0, 0, 0, 0}}, spec_error{{0, 0, 0, 0, 0}};
+  double diagnostic_period = 1.0;
+};
+
+class AnalyzerNodelet : public nodelet::Nodelet {
+ public:
+  AnalyzerNodelet();
+  ~AnalyzerNodelet() override;
+
+ private:
+  enum class Source { None, Imu, Angle };
+  /// One event counter with the ROS times of recent events.
+  struct EventLog {
+    uint64_t total = 0;
+    std::deque<ros::Time> times;
+    void add(const ros::Time& now);
+    size_t recent(const ros::Time& now, double recent_s);
+  };
+  /// What a hop hands to the worker thread.
+  struct Snapshot {
+    std::array<DeviationCurve, 3> curves;
+    ros::Time window_start, window_end;
+    std::string frame_id;
+    int64_t samples = 0;
+    int segments = 0;
+    double rate_hz = 0, fill = 0, temperature = 0;
+  };
+  struct FitSummary {
+    bool have = false;
+    std::array<FitResult, 3> fits;
+    ros::Time stamp;
+  };
+
+  void onInit() override;
+  void loadParams();
+  void initAccumulators(double tau0);
+  void imuCallback(const sensor_msgs::Imu::ConstPtr& msg);
+  void angleCallback(const geometry_msgs::Vector3Stamped::ConstPtr& msg);
+  void temperatureCallback(const sensor_msgs::Temperature::ConstPtr& msg);
+  void processSample(Source source, const ros::Time& stamp, const std::array<double, 3>& v,
+                     const std::string& frame_id);
+  bool isSaturated(const std::array<double, 3>& v);
+  void checkRate(double dt);
+  void maybeHop(const ros::Time& stamp);
+  void workerLoop();
+  void publishResults(const Snapshot& snap);
+  FitResult fitWithNoiseId(DeviationCurve* curve) const;
+  void diagTimer(const ros::TimerEvent&);
+  void diagStamps(diagnostic_updater::DiagnosticStatusWrapper& stat);
+  void diagValues(diagnostic_updater::DiagnosticStatusWrapper& stat);
+  void diagWindow(diagnostic_updater::DiagnosticStatusWrapper& stat);
+  void diagFit(diagnostic_updater::DiagnosticStatusWrapper& stat);
+  void diagTerm(int term, diagnostic_updater::DiagnosticStatusWrapper& stat);
+
+  AnalyzerParams p_;
+  ros::Subscriber imu_sub_, angle_sub_, temp_sub_;
+  ros::Publisher noise_pub_;
+  std::array<ros::Publisher, 3> curve_pub_;
+  ros::Timer diag_timer_;
+  std::unique_ptr<diagnostic_updater::Updater> updater_;
+  std::unique_ptr<diagnostic_updater::FrequencyStatus> freq_status_;
+  double freq_min_ = 0, freq_max_ = 1e9;
+
+  // ---- input state (guarded by mutex_) ----
+  std::mutex mutex_;
+  Source source_ = Source::None;
+  double tau0_ = 0;                          ///< nominal interval, 0 while learning
+  std::vector<double> learn_dt_;
+  std::array<std::unique_ptr<SlidingAllan>, 3> allan_;
+  bool have_last_ = false;
+  ros::Time last_stamp_;
+  bool dropped_since_last_ = false;          ///< a sample was dropped since the last accepted one
+  std::deque<double> recent_dt_;             ///< last intervals for rate-change detection
+  int64_t dt_since_check_ = 0;
+  bool rate_mismatch_ = false;               ///< fixed expected rate but the median interval disagrees
+  double measured_rate_hz_ = 0;
+  std::array<double, 3> last_value_{{0, 0, 0}}, max_abs_{{0, 0, 0}};
+  std::array<int, 3> run_{{0, 0, 0}};
+  std::deque<std::pair<ros::Time, int64_t>> seg_stamps_;  ///< (first stamp, phase points) per segment
+  ros::Time last_hop_;
+  bool have_hop_ = false;
+  std::string frame_id_;
+  double temp_sum_ = 0;
+  int64_t temp_count_ = 0;
+  uint64_t accepted_ = 0;
+  ros::Time last_accept_wall_;
+  EventLog out_of_order_, duplicate_, zero_stamp_, gap_, rate_change_, nonfinite_, saturated_, other_source_,
+      skipped_fits_;
+
+  // ---- worker (guarded by work_mutex_) ----
+  std::mutex work_mutex_;
+  std::condition_variable work_cv_;
+  std::unique_ptr<Snapshot> pending_;
+  bool stop_ = false;
+  std::thread worker_;
+  FitSummary last_fit_;
+  uint64_t fits_done_ = 0;
+};
+
+}  // namespace gyro_allan

@@ -1,0 +1,282 @@
+// rostest node for AnalyzerNodelet: ARW converges to the simulated truth; diagnostics react to bad input and recover.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include <diagnostic_msgs/DiagnosticArray.h>
+#include <geometry_msgs/Vector3Stamped.h>
+#include <gyro_allan/NoiseReport.h>
+#include <ros/ros.h>
+#include <sensor_msgs/Imu.h>
+#include <std_msgs/Header.h>
+
+#include "gyro_allan/simulate.hpp"
+
+// A message that claims to be sensor_msgs/Imu but carries only its header and a few bytes: the subscriber's
+// deserializer must reject it without harming the nodelet. (The header must be complete: the publishing side
+// rewrites header.seq in place.)
+struct TruncatedImu {
+  std_msgs::Header header;
+  std::vector<uint8_t> bytes;
+};
+namespace ros {
+namespace message_traits {
+template <>
+struct MD5Sum<TruncatedImu> {
+  static const char* value() { return MD5Sum<sensor_msgs::Imu>::value(); }
+  static const char* value(const TruncatedImu&) { return value(); }
+};
+template <>
+struct DataType<TruncatedImu> {
+  static const char* value() { return DataType<sensor_msgs::Imu>::value(); }
+  static const char* value(const TruncatedImu&) { return value(); }
+};
+template <>
+struct Definition<TruncatedImu> {
+  static const char* value() { return Definition<sensor_msgs::Imu>::value(); }
+  static const char* value(const TruncatedImu&) { return value(); }
+};
+}  // namespace message_traits
+namespace serialization {
+template <>
+struct Serializer<TruncatedImu> {
+  template <typename Stream>
+  inline static void write(Stream& stream, const TruncatedImu& m) {
+    stream.next(m.header);
+    for (uint8_t b : m.bytes) stream.next(b);
+  }
+  template <typename Stream>
+  inline static void read(Stream&, TruncatedImu&) {}
+  inline static uint32_t serializedLength(const TruncatedImu& m) {
+    return serializationLength(m.header) + static_cast<uint32_t>(m.bytes.size());
+  }
+};
+}  // namespace serialization
+}  // namespace ros
+
+namespace {
+
+constexpr double kRate = 1000.0;
+const double kTrueN[3] = {1e-3, 2e-3, 5e-4};  // rad/sqrt(s): ARW declared to the simulator per axis
+constexpr double kNTolerance = 0.10;          // relative: 20 s window at 1 kHz pins N to ~1-2 %
+
+class Harness {
+ public:
+  Harness() {
+    imu_pub_ = nh_.advertise<sensor_msgs::Imu>("imu", 20000);
+    bad_pub_ = nh_.advertise<TruncatedImu>("imu", 100);
+    angle_pub_ = nh_.advertise<geometry_msgs::Vector3Stamped>("angle", 100);
+    noise_sub_ = nh_.subscribe("analyzer/noise", 100, &Harness::onNoise, this);
+    diag_sub_ = nh_.subscribe("/diagnostics", 100, &Harness::onDiag, this);
+    const int64_t n = 120000;
+    for (int a = 0; a < 3; ++a) {
+      gyro_allan::AxisNoise noise;
+      noise.angle_random_walk = kTrueN[a];
+      noise.bias = 0.01 * (a + 1);
+      data_[a] = gyro_allan::simulateAxis(noise, kRate, n, 42, a);
+    }
+  }
+
+  bool waitForSubscriber(double timeout_s) {
+    const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(timeout_s);
+    while (ros::WallTime::now() < end) {
+      if (imu_pub_.getNumSubscribers() > 0 && noise_sub_.getNumPublishers() > 0) return true;
+      ros::WallDuration(0.05).sleep();
+    }
+    return false;
+  }
+
+  /// Publishes clean samples in real time (10 per 10 ms) for `seconds`, or until pred() is true. Returns pred's
+  /// last value (true when there is no predicate).
+  template <class Pred>
+  bool publishUntil(double seconds, Pred pred) {
+    ros::WallRate rate(100);
+    const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(seconds);
+    while (ros::WallTime::now() < end && ros::ok()) {
+      for (int j = 0; j < 10; ++j) publishNext();
+      if (pred()) return true;
+      rate.sleep();
+    }
+    return pred();
+  }
+  void publishFor(double seconds) {
+    publishUntil(seconds, [] { return false; });
+  }
+
+  void publishNext(double override_x = NAN, bool use_override = false) {
+    const size_t k = next_ % data_[0].size();
+    publish(stamp(next_), use_override ? override_x : data_[0][k], data_[1][k], data_[2][k]);
+    ++next_;
+  }
+  void publish(const ros::Time& stamp, double x, double y, double z) {
+    sensor_msgs::Imu m;
+    m.header.stamp = stamp;
+    m.header.frame_id = "imu_link";
+    m.angular_velocity.x = x;
+    m.angular_velocity.y = y;
+    m.angular_velocity.z = z;
+    imu_pub_.publish(m);
+  }
+  ros::Time stamp(int64_t k) const { return t0_ + ros::Duration(k / kRate); }
+  void skip(int64_t samples) { next_ += samples; }
+  int64_t next() const { return next_; }
+
+  void publishTruncated() {
+    TruncatedImu bad;
+    bad.header.stamp = stamp(next_);
+    bad.header.frame_id = "imu_link";
+    bad.bytes = {1, 2, 3, 4, 5, 6, 7};
+    bad_pub_.publish(bad);
+  }
+  void publishAngle() {
+    geometry_msgs::Vector3Stamped m;
+    m.header.stamp = stamp(next_);
+    angle_pub_.publish(m);
+  }
+
+  // ---- observations
+  void onNoise(const gyro_allan::NoiseReport::ConstPtr& msg) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    last_report_ = *msg;
+    ++reports_;
+  }
+  void onDiag(const diagnostic_msgs::DiagnosticArray::ConstPtr& msg) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (const auto& s : msg->status) {
+      if (s.name.rfind("gyro_allan/analyzer: ", 0) != 0) continue;
+      const std::string key = s.name.substr(std::string("gyro_allan/analyzer: ").size());
+      level_[key] = s.level;
+      max_level_[key] = std::max<int>(max_level_.count(key) ? max_level_[key] : 0, s.level);
+      message_[key] = s.message;
+      ++diag_updates_[key];
+    }
+  }
+  int level(const std::string& key) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return level_.count(key) ? level_[key] : -1;
+  }
+  int maxLevel(const std::string& key) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return max_level_.count(key) ? max_level_[key] : -1;
+  }
+  std::string message(const std::string& key) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return message_[key];
+  }
+  void clearMax() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    max_level_.clear();
+  }
+  int reports() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return reports_;
+  }
+  gyro_allan::NoiseReport lastReport() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return last_report_;
+  }
+
+ private:
+  ros::NodeHandle nh_;
+  ros::Publisher imu_pub_, bad_pub_, angle_pub_;
+  ros::Subscriber noise_sub_, diag_sub_;
+  std::vector<double> data_[3];
+  ros::Time t0_{1000.0};
+  int64_t next_ = 0;
+  std::mutex mutex_;
+  gyro_allan::NoiseReport last_report_;
+  int reports_ = 0;
+  std::map<std::string, int> level_, max_level_, diag_updates_;
+  std::map<std::string, std::string> message_;
+};
+
+const int OK = diagnostic_msgs::DiagnosticStatus::OK;
+const int WARN = diagnostic_msgs::DiagnosticStatus::WARN;
+
+void expectConverged(const gyro_allan::NoiseReport& r, const char* when) {
+  ASSERT_EQ(r.axes.size(), 3u) << when;
+  EXPECT_NEAR(r.rate_hz, kRate, 0.01 * kRate) << when;
+  for (int a = 0; a < 3; ++a) {
+    const auto& ax = r.axes[a];
+    EXPECT_TRUE(ax.fit_ok) << when << " axis " << ax.axis << ": " << ax.message;
+    EXPECT_TRUE(ax.angle_random_walk.supported) << when << " axis " << ax.axis;
+    EXPECT_NEAR(ax.angle_random_walk.value, kTrueN[a], kNTolerance * kTrueN[a])
+        << when << " axis " << ax.axis << " (sigma " << ax.angle_random_walk.sigma << ")";
+  }
+}
+
+}  // namespace
+
+TEST(NodeletConvergence, ConvergesReactsAndRecovers) {
+  Harness h;
+  ASSERT_TRUE(h.waitForSubscriber(20.0)) << "analyzer nodelet did not come up";
+  ros::WallDuration(0.5).sleep();
+
+  // A. Clean data: reports arrive and N converges (window 20 s, hop 1 s, rate learned from 200 intervals).
+  ASSERT_TRUE(h.publishUntil(25.0, [&] { return h.reports() >= 3 && h.next() >= 12000; }))
+      << "no noise reports after " << h.next() << " samples";
+  h.publishFor(1.5);  // let the diagnostics settle on clean data
+  expectConverged(h.lastReport(), "clean");
+  EXPECT_EQ(h.lastReport().segments, 1);
+  EXPECT_EQ(h.level("stamps"), OK) << h.message("stamps");
+  EXPECT_EQ(h.level("input values"), OK) << h.message("input values");
+  EXPECT_EQ(h.level("window"), OK) << h.message("window");
+  EXPECT_EQ(h.level("angle random walk"), OK) << h.message("angle random walk");
+  EXPECT_LE(h.level("input rate"), WARN) << h.message("input rate");
+  EXPECT_GE(h.level("fit quality"), OK) << "fit quality status missing";
+
+  // B. One NaN sample: "input values" goes to WARN/ERROR, then back to OK (diag/recent_s = 3 s).
+  h.clearMax();
+  h.publishNext(std::nan(""), true);
+  EXPECT_TRUE(h.publishUntil(5.0, [&] { return h.maxLevel("input values") >= WARN; })) << "NaN not reported";
+  EXPECT_TRUE(h.publishUntil(10.0, [&] { return h.level("input values") == OK; }))
+      << "input values did not recover: " << h.message("input values");
+  // The dropped NaN sample is a break in the data, not a stamp problem.
+  EXPECT_EQ(h.maxLevel("stamps"), OK) << h.message("stamps");
+
+  // C. A 100 ms gap in the stamps: "stamps" warns, the window is segmented, then recovery.
+  h.clearMax();
+  h.skip(100);
+  EXPECT_TRUE(h.publishUntil(5.0, [&] { return h.maxLevel("stamps") >= WARN; })) << "gap not reported";
+  EXPECT_TRUE(h.publishUntil(10.0, [&] { return h.level("stamps") == OK; }))
+      << "stamps did not recover: " << h.message("stamps");
+  EXPECT_GE(h.lastReport().segments, 2) << "a gap must split the window into segments";
+
+  // D. An out-of-order and a duplicate stamp.
+  h.clearMax();
+  h.publish(h.stamp(h.next() - 5), 0.0, 0.0, 0.0);
+  h.publish(h.stamp(h.next() - 1), 0.0, 0.0, 0.0);
+  EXPECT_TRUE(h.publishUntil(5.0, [&] { return h.maxLevel("stamps") >= WARN; })) << "out of order not reported";
+  EXPECT_TRUE(h.publishUntil(10.0, [&] { return h.level("stamps") == OK; }))
+      << "stamps did not recover: " << h.message("stamps");
+
+  // E. Malformed input: truncated Imu payloads, a zero stamp, a message on the other source topic. The nodelet
+  // must survive (reports keep coming) and its statuses recover.
+  h.clearMax();
+  for (int i = 0; i < 5; ++i) h.publishTruncated();
+  h.publish(ros::Time(0), 0.1, 0.1, 0.1);
+  h.publishAngle();
+  const int before = h.reports();
+  EXPECT_TRUE(h.publishUntil(5.0, [&] { return h.maxLevel("stamps") >= WARN; })) << "zero stamp not reported";
+  EXPECT_TRUE(h.publishUntil(12.0, [&] {
+    return h.reports() >= before + 3 && h.level("stamps") == OK && h.level("input values") == OK;
+  })) << "after malformed input: reports " << h.reports() - before << ", stamps '" << h.message("stamps")
+      << "', values '" << h.message("input values") << "'";
+  expectConverged(h.lastReport(), "after bad input");
+}
+
+int main(int argc, char** argv) {
+  testing::InitGoogleTest(&argc, argv);
+  ros::init(argc, argv, "nodelet_convergence");
+  ros::AsyncSpinner spinner(1);
+  spinner.start();
+  const int rc = RUN_ALL_TESTS();
+  spinner.stop();
+  ros::shutdown();
+  return rc;
+}
