@@ -1,0 +1,42 @@
+// Reads sensor_msgs/Imu (and optional sensor_msgs/Temperature) from rosbags in one streaming pass into per-axis
+// sample arrays, with one-line errors for every way a bag can be unusable.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace gyro_allan {
+
+/// An input problem the user must fix (missing file, wrong topic type, empty bag...): what() is one line.
+struct InputError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+struct BagReadOptions {
+  std::string topic;              ///< sensor_msgs/Imu topic; empty = the only one in the bags
+  std::string temperature_topic;  ///< sensor_msgs/Temperature topic; empty = the only one, if any; "-" = none
+  bool use_bag_time = false;      ///< use the bag's receive time instead of header.stamp
+  double start_s = 0;             ///< skip this many seconds from the first message
+  double duration_s = 0;          ///< keep at most this many seconds (0 = all)
+  bool progress = false;          ///< print progress on stderr
+};
+
+struct ImuSeries {
+  std::string topic;
+  std::string frame_id;
+  std::vector<std::string> bags;           ///< in time order
+  std::vector<double> t;                   ///< stamps, s since (first non-zero stamp - 1 s); 0 = zero stamp
+  std::array<std::vector<double>, 3> gyro; ///< angular_velocity x, y, z, rad/s
+  std::array<std::vector<double>, 3> accel; ///< linear_acceleration x, y, z, m/s^2
+  std::string temperature_topic;           ///< empty when none was read
+  std::vector<double> temperature_t, temperature;  ///< stamps [s, same origin as t] and degC
+  int64_t messages = 0;
+};
+
+/// Reads every bag (ordered by their first stamp) for the chosen topic. Throws InputError.
+ImuSeries readImuBags(const std::vector<std::string>& bags, const BagReadOptions& options);
+
+}  // namespace gyro_allan

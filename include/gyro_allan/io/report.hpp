@@ -1,0 +1,38 @@
+// Writes analysis results: report.yaml (or .json), allan.csv and the human summary table; files are written to a
+// temporary name and renamed, so an interrupted run never leaves a half-written report.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <yaml-cpp/yaml.h>
+
+#include "gyro_allan/analysis.hpp"
+#include "gyro_allan/timing.hpp"
+
+namespace gyro_allan {
+
+struct ReportMeta {
+  std::vector<std::string> sources;  ///< bag or CSV paths
+  std::string topic;                 ///< IMU topic (empty for CSV)
+  std::string input = "rate";        ///< rate | angle
+  std::string input_units = "rad/s";
+  std::string tau_grid;
+  double confidence = 0.683;
+  StampReport stamps;
+  std::vector<std::string> warnings;
+};
+
+/// The report as a YAML tree (schema in README "report.yaml").
+YAML::Node buildReport(const ReportMeta& meta, const std::vector<AxisAnalysis>& axes);
+/// YAML text or JSON text of a tree.
+std::string toYaml(const YAML::Node& node);
+std::string toJson(const YAML::Node& node);
+/// allan.csv: one row per (axis, deviation, tau); columns in README.
+std::string allanCsv(const std::vector<AxisAnalysis>& axes);
+/// Fixed-width summary in conventional units.
+std::string summaryTable(const std::vector<AxisAnalysis>& axes);
+/// Writes content to path via path.tmp + rename. Throws std::runtime_error naming the path.
+void writeFileAtomic(const std::string& path, const std::string& content);
+
+}  // namespace gyro_allan
