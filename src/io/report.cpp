@@ -11,10 +11,19 @@
 namespace gyro_allan {
 namespace {
 
+/// A double as a plain YAML scalar with 10 significant digits (yaml-cpp would print 17: 0.68300000000000005).
+YAML::Node num(double v) {
+  if (std::isnan(v)) return YAML::Node(".nan");
+  if (std::isinf(v)) return YAML::Node(v > 0 ? ".inf" : "-.inf");
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.10g", v);
+  return YAML::Node(std::string(buf));
+}
+
 YAML::Node coefficientNode(const Coefficient& c, const char* unit) {
   YAML::Node n;
-  n["value"] = c.value;
-  n["sigma"] = c.sigma;
+  n["value"] = num(c.value);
+  n["sigma"] = num(c.sigma);
   n["supported"] = c.supported;
   n["unit"] = unit;
   return n;
@@ -30,8 +39,8 @@ YAML::Node fitNode(const FitResult& fit) {
   YAML::Node n;
   n["ok"] = fit.ok;
   if (!fit.ok) n["message"] = fit.message;
-  n["rms_log10"] = fit.rms_log10;
-  n["chi2_dof"] = fit.chi2_dof;
+  n["rms_log10"] = num(fit.rms_log10);
+  n["chi2_dof"] = num(fit.chi2_dof);
   n["dof"] = fit.dof;
   n["rms_points"] = fit.n_rms;
   return n;
@@ -114,7 +123,7 @@ YAML::Node buildReport(const ReportMeta& meta, const std::vector<AxisAnalysis>& 
   r["input"] = in;
   r["method"] = "joint_fit";
   r["tau_grid"] = meta.tau_grid;
-  r["confidence"] = meta.confidence;
+  r["confidence"] = num(meta.confidence);
   YAML::Node st;
   st["input"] = meta.stamps.input;
   st["kept"] = meta.stamps.kept;
@@ -123,7 +132,7 @@ YAML::Node buildReport(const ReportMeta& meta, const std::vector<AxisAnalysis>& 
   st["out_of_order"] = meta.stamps.out_of_order;
   st["duplicate"] = meta.stamps.duplicate;
   st["gaps"] = meta.stamps.gaps;
-  st["gap_time_s"] = meta.stamps.gap_time_s;
+  st["gap_time_s"] = num(meta.stamps.gap_time_s);
   st["rate_changed"] = meta.stamps.rate_changed;
   r["stamps"] = st;
   r["warnings"] = YAML::Node(YAML::NodeType::Sequence);
@@ -133,9 +142,9 @@ YAML::Node buildReport(const ReportMeta& meta, const std::vector<AxisAnalysis>& 
     YAML::Node n;
     n["samples"] = a.samples;
     n["segments"] = a.segments;
-    n["rate_hz"] = a.rate_hz;
-    n["duration_s"] = a.duration_s;
-    n["mean"] = a.mean;
+    n["rate_hz"] = num(a.rate_hz);
+    n["duration_s"] = num(a.duration_s);
+    n["mean"] = num(a.mean);
     n["coefficients"] = coefficientsNode(a.fit);
     n["fit"] = fitNode(a.fit);
     YAML::Node jf;
