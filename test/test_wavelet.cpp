@@ -367,3 +367,8 @@ TEST(WaveletErrors, BadInputThrows) {
   EXPECT_THROW(wden({1.0}, WdenOptions{}), std::invalid_argument);
   EXPECT_THROW(parseNoiseScaling("xyz"), std::invalid_argument);
 }
+
+int main(int argc, char** argv) {
+  ::testing::InitGoogleTest(&argc, argv);
+  return RUN_ALL_TESTS();
+}

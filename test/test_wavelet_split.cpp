@@ -183,3 +183,8 @@ TEST(WaveletSplit, BadInputThrows) {
   EXPECT_THROW(waveletSplit(x, 0.01), std::invalid_argument);
   EXPECT_THROW(splitAngleFactors(Wavelet("sym8"), 0), std::invalid_argument);
 }
+
+int main(int argc, char** argv) {
+  ::testing::InitGoogleTest(&argc, argv);
+  return RUN_ALL_TESTS();
+}

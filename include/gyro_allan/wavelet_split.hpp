@@ -33,7 +33,9 @@ struct WaveletSplitOptions {
   std::string q_estimator = "angle";               ///< "angle" or "allan"
   std::string n_estimator = "wavelet_variance";    ///< "wavelet_variance" or "allan"
   /// Levels used for N: predicted quantization share of the level's variance at most this (wavelet_variance).
-  double max_quantization_share = 0.5;
+  double max_quantization_share = 0.8;
+  /// Levels of the free-share fit (whiteness check): white-model quantization at most this times the ARW there.
+  double free_fit_max_ratio = 3.0;
   DeviationOptions deviation;                      ///< for the two oadev curves
   /// Terms for the longer-tau fit of the denoised part (Q is handled separately; N, B, K, R by default).
   std::array<bool, kNumTerms> enabled{{true, true, true, true, true}};

@@ -395,9 +395,9 @@ WaveletSplitResult waveletSplit(const std::vector<double>& rate, double tau0, co
   // near the crossover have a known quantization share Q^2 a_j ("fixed"). A quantization error that is not white
   // (sawtooth of a pulse counter at constant rate) leaves the coarse levels nearly clean, and subtracting the white
   // share there would bias N low; so the share is also fitted freely ("free": gamma a_j over levels whose white
-  // share is at most kFreeFitMaxRatio times the ARW) and the fixed fit is used only when gamma agrees with Q^2 within
+  // share is at most free_fit_max_ratio times the ARW) and the fixed fit is used only when gamma agrees with Q^2 within
   // 3 sigma. For non-white quantization the lost fraction 1 - V_Q is scaled by the same gamma / Q^2.
-  constexpr double kFreeFitMaxRatio = 10.0;
+  const double kFreeFitMaxRatio = options.free_fit_max_ratio;
   int j_used = J + 1;
   double v_q_eff = fac.v_q;
   for (int it = 0; it < 5; ++it) {

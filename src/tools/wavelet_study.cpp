@@ -49,7 +49,7 @@ struct Stats {
 void usage() {
   std::fprintf(stderr,
                "usage: wavelet_study [--seeds N] [--scenario NAME|all] [--level L] [--rule R] [--wavelet W] [--scaling S]\n"
-               "                     [--max-share F]\n"
+               "                     [--max-share F] [--free-ratio R]\n"
                "  scenarios: dither400 saw400 dither100 saw100 nodither400 (all: the first four)\n");
 }
 
@@ -76,6 +76,7 @@ int main(int argc, char** argv) {
     else if (a == "--wavelet") wopt.wavelet = next();
     else if (a == "--scaling") wopt.scaling = parseNoiseScaling(next());
     else if (a == "--max-share") wopt.max_quantization_share = std::atof(next().c_str());
+    else if (a == "--free-ratio") wopt.free_fit_max_ratio = std::atof(next().c_str());
     else {
       usage();
       return 2;
