@@ -132,6 +132,18 @@ SanitizedSeries sanitize(const std::vector<double>& t, const std::vector<const s
   rep.nominal_period_s = period;
   rep.rate_hz = period > 0 ? 1.0 / period : 0.0;
   for (double p : seg_periods) rep.max_rate_deviation = std::max(rep.max_rate_deviation, std::fabs(p / period - 1.0));
+  // A rate change without a gap (e.g. 100 -> 125 Hz) stays inside one segment: compare the median interval of
+  // consecutive blocks (20 per record, at least 16 intervals each) with the nominal period.
+  {
+    std::vector<double> d;
+    for (const auto& seg : out.segments)
+      for (size_t i = seg.begin + 1; i < seg.end; ++i) d.push_back(out.t[i] - out.t[i - 1]);
+    const size_t block = std::max<size_t>(16, d.size() / 20);
+    for (size_t b = 0; b + block <= d.size(); b += block) {
+      std::vector<double> chunk(d.begin() + static_cast<long>(b), d.begin() + static_cast<long>(b + block));
+      rep.max_rate_deviation = std::max(rep.max_rate_deviation, std::fabs(median(chunk) / period - 1.0));
+    }
+  }
   rep.rate_changed = rep.max_rate_deviation > 0.05;
   if (!out.t.empty()) {
     rep.first_stamp = out.t.front();
