@@ -295,3 +295,8 @@ TEST(SlidingAllan, CurveHasEdfAndConfidence) {
   // Memory is bounded by the window: ring buffer of the next power of two >= window + 2 doubles, plus O(#m).
   EXPECT_LE(s.memoryBytes(), 8192 * sizeof(double) + 4096);
 }
+
+int main(int argc, char** argv) {
+  testing::InitGoogleTest(&argc, argv);
+  return RUN_ALL_TESTS();
+}
