@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <random>
 #include <stdexcept>
 #include <vector>
 
@@ -141,6 +142,25 @@ TEST(Effects, ImpulseMatchesBruteForce) {
     const double tau = m * 0.01;
     EXPECT_NEAR(overlappingAvarAt(y, m), area2 * impulseAvar(tau, 1000.0), 0.02 * area2 * impulseAvar(tau, 1000.0));
   }
+}
+
+TEST(Effects, ShortCorrelationMatchesMa1) {
+  // MA(1) noise y_k = e_k + 0.5 e_{k-1} (unit e): gamma_0 = 1.25, gamma_1 = 0.5, S = 2.25, M1 = 0.5;
+  // AVAR(m) = S/m + M1 * shortCorrelationAvar within 1 % (2e6 samples).
+  std::mt19937_64 rng(11);
+  std::normal_distribution<double> nd(0.0, 1.0);
+  std::vector<double> y(2000000);
+  double prev = nd(rng);
+  for (auto& v : y) {
+    const double e = nd(rng);
+    v = e + 0.5 * prev;
+    prev = e;
+  }
+  for (int64_t m : {1, 2, 3, 5, 10, 30}) {
+    const double th = 2.25 / m + 0.5 * shortCorrelationAvar(m * 0.01, 0.01);
+    EXPECT_NEAR(overlappingAvarAt(y, m), th, 0.01 * th) << "m=" << m;
+  }
+  EXPECT_NEAR(shortCorrelationAvar(0.02, 0.01), -0.75, 1e-12);
 }
 
 TEST(Effects, BadInputThrows) {

@@ -32,6 +32,13 @@ double biasStepAvar(double tau, double t_step, double record_s);
 /// theta^3 (1 - e^{-tau/theta})^4 (1 - e^{-2 (record_s - 2 tau)/theta}) / (4 tau^2 (record_s - 2 tau)).
 double warmupAvar(double tau, double theta, double record_s);
 
+/// Noise correlated over a few samples (a sensor's internal low-pass / decimation filter), beyond its
+/// white-equivalent part: for autocovariances gamma_k vanishing beyond lag L, AVAR(m) = S/m - 3 M1/m^2 exactly for
+/// m >= L, with S = gamma_0 + 2 sum gamma_k (the white level, N^2 = S tau0) and M1 = sum_k k gamma_k. This returns
+/// the second part per unit M1 (rate^2): -3 (tau0/tau)^2. It is NEGATIVE: the shape of the IEEE quantization term
+/// with the opposite sign, which the non-negative IEEE fit cannot represent.
+double shortCorrelationAvar(double tau, double tau0);
+
 /// Isolated impulses (shocks): per unit sum of squared impulse areas (sum of (spike * tau0)^2, rad^2), well inside
 /// the record: 1 / (tau (record_s - 2 tau)).
 double impulseAvar(double tau, double record_s);

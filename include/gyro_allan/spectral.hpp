@@ -28,6 +28,8 @@ struct SpectralPeak {
   double amplitude = 0;      ///< sqrt(2 power): the amplitude of an equivalent sinusoid
   double bandwidth_hz = 0;   ///< width of the feature where the excess exceeds half its maximum (>= df)
   double df = 0;             ///< resolution of the PSD it was found in
+  std::vector<double> profile_f;  ///< bins of the feature (Hz)
+  std::vector<double> profile_p;  ///< their excess power over the floor (units^2, sums to `power`)
 };
 
 /// Peaks at least min_prominence_db above the running median of +-halfwidth bins (halfwidth chosen from the PSD

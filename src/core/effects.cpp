@@ -77,6 +77,12 @@ double warmupAvar(double tau, double theta, double record_s) {
   return theta * theta * theta * g * g * g * g * (-std::expm1(-2.0 * span / theta)) / (4.0 * tau * tau * span);
 }
 
+double shortCorrelationAvar(double tau, double tau0) {
+  requirePositive(tau, "shortCorrelationAvar: tau");
+  requirePositive(tau0, "shortCorrelationAvar: tau0");
+  return -3.0 * (tau0 / tau) * (tau0 / tau);
+}
+
 double impulseAvar(double tau, double record_s) {
   requirePositive(tau, "impulseAvar: tau");
   requirePositive(record_s, "impulseAvar: record length");

@@ -32,7 +32,7 @@ int countParams(const FitResult& f) {
 
 // How an extra term behaves: deterministic effects (sinusoid, step, warm-up, temperature-driven drift, impulses)
 // add an exactly known amount to the AVAR estimate and no estimation noise of their own; stochastic ones do.
-enum class Nature { Deterministic, GaussMarkov, Narrowband };
+enum class Nature { Deterministic, GaussMarkov, Narrowband, Correction };
 struct TermInfo {
   Nature nature = Nature::Deterministic;
   double tc = 0;         // Gauss-Markov correlation time
@@ -74,7 +74,8 @@ struct Trial {
 };
 
 // Stochastic and deterministic parts of a model at tau, and the power-law alpha of its dominant stochastic term
-// (Q: 2, N: 0, B: -1, K and R: -2; Gauss-Markov -2 below its correlation time, 0 above; narrowband 2).
+// (Q: 2, N: 0, B: -1, K and R: -2; Gauss-Markov -2 below its correlation time, 0 above; narrowband and
+// short-correlation terms add variance but never set alpha).
 struct Parts {
   double stochastic = 0, deterministic = 0;
   double localized = 0;   // part of `deterministic` from localized effects
@@ -105,7 +106,8 @@ Parts modelParts(const FitResult& fit, const std::vector<ExtraTerm>& extra, cons
         }
         break;
       case Nature::GaussMarkov: stochastic(v, tau < info[e].tc ? -2 : 0); break;
-      case Nature::Narrowband: stochastic(v, 2); break;
+      case Nature::Narrowband: p.stochastic += v; break;  // its EDF is left to the broadband terms
+      case Nature::Correction: p.stochastic += v; break;  // negative correction of the white level
     }
   }
   return p;
@@ -406,6 +408,38 @@ ModelCheck checkModel(const std::vector<double>& rate, double tau0, const Deviat
       }
       if (!dup) kept.push_back(pk);
     }
+    // Broad features: re-measure the shape of the excess on a mid-resolution PSD (>= ~250 segments, so each bin
+    // is within ~6 %), floor = median of the flanks at 2-4 widths from the centre.
+    const int64_t mid = std::min<int64_t>(8192, pow2Below(n / 128));
+    std::unique_ptr<Psd> mid_psd;
+    for (auto& pk : kept) {
+      if (pk.bandwidth_hz <= 4 * pk.df || mid <= coarse || mid < 64) continue;
+      if (!mid_psd) mid_psd.reset(new Psd(welchPsd(rate, fs, mid, 0.5)));
+      const Psd& ps = *mid_psd;
+      const double f0 = pk.frequency_hz, w = pk.bandwidth_hz;
+      std::vector<double> flank;
+      for (size_t i = 1; i < ps.f.size(); ++i) {
+        const double d = std::fabs(ps.f[i] - f0);
+        if (d >= 2 * w && d <= 4 * w) flank.push_back(ps.p[i]);
+      }
+      if (flank.size() < 8) continue;
+      std::nth_element(flank.begin(), flank.begin() + flank.size() / 2, flank.end());
+      const double floor = flank[flank.size() / 2];
+      std::vector<double> pf, pp;
+      double power = 0;
+      for (size_t i = 1; i < ps.f.size(); ++i) {
+        if (std::fabs(ps.f[i] - f0) >= 2 * w) continue;
+        const double e = ps.p[i] - floor;
+        if (e <= 0) continue;
+        pf.push_back(ps.f[i]);
+        pp.push_back(e * ps.df);
+        power += e * ps.df;
+      }
+      if (power > 0) {
+        pk.profile_f = pf;
+        pk.profile_p = pp;
+      }
+    }
     for (const auto& pk : kept) {
       if (pk.frequency_hz <= 0 || pk.frequency_hz >= fs / 2) continue;
       Candidate c;
@@ -420,26 +454,30 @@ ModelCheck checkModel(const std::vector<double>& rate, double tau0, const Deviat
                     line ? pk.df : pk.bandwidth_hz, static_cast<long long>(std::llround(fs / pk.df)), pk.amplitude);
       c.evidence = buf;
       const double f0 = pk.frequency_hz;
-      const double bw = line ? 0.0 : pk.bandwidth_hz;
       const double t0 = tau0;
-      c.make = [f0, bw, t0](double) {
+      // A line keeps its PSD frequency; a narrowband oscillation keeps the measured shape of its PSD excess: its
+      // AVAR is the excess-weighted mean of the sinusoid term over the feature's bins (c = 2 x total power).
+      auto fr = std::make_shared<std::vector<double>>(pk.profile_f);
+      auto wt = std::make_shared<std::vector<double>>(pk.profile_p);
+      double wsum = 0;
+      for (double v : *wt) wsum += v;
+      for (auto& v : *wt) v /= (wsum > 0 ? wsum : 1.0);
+      c.make = [f0, line, t0, fr, wt](double) {
         ExtraTerm e;
-        if (bw <= 0) {
+        if (line || fr->empty()) {
           e.name = "sinusoid";
           e.basis = [f0, t0](double tau) { return sinusoidAvar(tau, f0, t0); };
         } else {
           e.name = "narrowband";
-          const double lo = std::max(1e-9, f0 - bw / 2), hi = f0 + bw / 2;
-          e.basis = [lo, hi, t0](double tau) {
-            const int k = 33;
+          e.basis = [fr, wt, t0](double tau) {
             double s = 0;
-            for (int i = 0; i < k; ++i) s += sinusoidAvar(tau, lo + (hi - lo) * (i + 0.5) / k, t0);
-            return s / k;
+            for (size_t i = 0; i < fr->size(); ++i) s += (*wt)[i] * sinusoidAvar(tau, (*fr)[i], t0);
+            return s;
           };
         }
         return e;
       };
-      c.fixed["frequency_hz"] = {f0, line ? pk.df / 2 : pk.bandwidth_hz / 2};
+      c.fixed["frequency_hz"] = {f0, line ? pk.df / 2 : pk.df};
       if (!line) c.fixed["bandwidth_hz"] = {pk.bandwidth_hz, pk.df};
       c.amplitude_name = "amplitude";
       c.n_nonlinear = line ? 1 : 2;
@@ -465,6 +503,29 @@ ModelCheck checkModel(const std::vector<double>& rate, double tau0, const Deviat
       const double noise = 1.0 / std::sqrt(static_cast<double>(nx));
       if (rho[1] < opts.acf_min_z * noise) continue;
       const double dt = sc.block * tau0;
+      if (sc.block == 1) {
+        // Noise correlated over a few samples (internal filter): the -3 M1 (tau0/tau)^2 correction with
+        // M1 = sum k gamma_k >= 0 fitted; evidence from the first lags.
+        Candidate c;
+        c.type = "short_correlation";
+        c.nature = Nature::Correction;
+        char buf[256];
+        std::snprintf(buf, sizeof buf,
+                      "autocorrelation of the samples: lag-1 %.3f, lag-2 %.3f, lag-3 %.3f (white: 0 +- %.4f): noise "
+                      "correlated over a few samples (sensor low-pass/decimation filter)",
+                      rho[1], rho.size() > 2 ? rho[2] : 0.0, rho.size() > 3 ? rho[3] : 0.0, noise);
+        c.evidence = buf;
+        const double t0 = tau0;
+        c.make = [t0](double) {
+          ExtraTerm e;
+          e.name = "short_correlation";
+          e.basis = [t0](double tau) { return shortCorrelationAvar(tau, t0); };
+          return e;
+        };
+        c.fixed["lag1_correlation"] = {rho[1], noise};
+        c.amplitude_name = "sqrt_m1";
+        cands.push_back(c);
+      }
       const ExponentialAcfFit ef = fitExponentialAcf(rho, dt, 3 * noise);
       if (!ef.ok || !(ef.tc > 0)) continue;
       Candidate c;
@@ -763,7 +824,8 @@ ModelCheck checkModel(const std::vector<double>& rate, double tau0, const Deviat
   for (size_t e = 0; e < mc.effects.size() && e < current.fit.extra.size(); ++e) {
     for (auto& kv : mc.effects[e].parameters) {
       const std::string& k = kv.first;
-      if (k == "amplitude" || k == "sigma" || k == "size" || k == "coefficient_per_degc" || k == "rss_area") {
+      if (k == "amplitude" || k == "sigma" || k == "size" || k == "coefficient_per_degc" || k == "rss_area" ||
+          k == "sqrt_m1") {
         const double sign = kv.second.value < 0 ? -1.0 : 1.0;
         kv.second = {sign * current.fit.extra[e].value, current.fit.extra[e].sigma};
       }

@@ -76,7 +76,7 @@ std::vector<SpectralPeak> findPsdPeaks(const Psd& psd, double min_prominence_db,
   const int64_t nb = static_cast<int64_t>(psd.p.size());
   std::vector<SpectralPeak> peaks;
   if (nb < 32 || max_peaks <= 0) return peaks;
-  const int64_t hw = std::min<int64_t>(128, std::max<int64_t>(8, nb / 32));
+  const int64_t hw = std::min<int64_t>(128, std::max<int64_t>(8, nb / 8));
   const int64_t first = 6;
   std::vector<double> floor(nb, 0.0);
   std::vector<double> win;
@@ -102,18 +102,23 @@ std::vector<SpectralPeak> findPsdPeaks(const Psd& psd, double min_prominence_db,
   for (const auto& c : cand) {
     const int64_t k = c.second;
     if (taken[k]) continue;
-    // Extent of the feature: contiguous bins whose excess over the floor stays above 1/8 of the peak excess, at least
+    // Extent of the feature: contiguous bins whose excess over the floor stays above 1/32 of the peak excess, at least
     // +-2 bins (the Hann main lobe).
     const double fl = floor[k];
     const double peak_excess = psd.p[k] - fl;
     int64_t lo = k, hi = k;
-    while (lo - 1 >= first && (psd.p[lo - 1] - fl > peak_excess / 8 || k - lo < 2)) --lo;
-    while (hi + 1 < nb && (psd.p[hi + 1] - fl > peak_excess / 8 || hi - k < 2)) ++hi;
+    while (lo - 1 >= first && (psd.p[lo - 1] - fl > peak_excess / 32 || k - lo < 2)) --lo;
+    while (hi + 1 < nb && (psd.p[hi + 1] - fl > peak_excess / 32 || hi - k < 2)) ++hi;
     double power = 0, moment = 0;
     int64_t half_lo = k, half_hi = k;
+    std::vector<double> p_f, p_p;
     for (int64_t i = lo; i <= hi; ++i) {
       const double e = std::max(0.0, psd.p[i] - fl);
       power += e * psd.df;
+      if (e > 0) {
+        p_f.push_back(psd.f[i]);
+        p_p.push_back(e * psd.df);
+      }
       moment += e * psd.df * psd.f[i];
       if (e >= peak_excess / 2) {
         half_lo = std::min(half_lo, i);
@@ -129,6 +134,8 @@ std::vector<SpectralPeak> findPsdPeaks(const Psd& psd, double min_prominence_db,
     p.amplitude = std::sqrt(2.0 * power);
     p.bandwidth_hz = (half_hi - half_lo + 1) * psd.df;
     p.df = psd.df;
+    p.profile_f = p_f;
+    p.profile_p = p_p;
     peaks.push_back(p);
     if (static_cast<int>(peaks.size()) >= max_peaks) break;
   }
@@ -186,6 +193,15 @@ ExponentialAcfFit fitExponentialAcf(const std::vector<double>& rho, double dt, d
       fit.tc = -dt / std::log(rho[1]);
       fit.r2 = 0;
     }
+    return fit;
+  }
+  if (lx.size() == 2) {  // two lags: the exponential through both
+    const double slope = (ly[1] - ly[0]) / (lx[1] - lx[0]);
+    if (!(slope < 0)) return fit;
+    fit.ok = true;
+    fit.tc = -1.0 / slope;
+    fit.a = std::exp(ly[0] - slope * lx[0]);
+    fit.r2 = 1;
     return fit;
   }
   const LinearRegression lr = linearRegression(lx, ly);
