@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "gyro_allan/allan.hpp"
+#include "gyro_allan/analysis.hpp"
 #include "gyro_allan/noise_model.hpp"
 #include "gyro_allan/simulate.hpp"
 
@@ -131,7 +132,7 @@ TEST(NoiseModel, RecoversMemsCoefficientsFromSimulation) {
   for (uint64_t seed : {11u, 12u}) {
     for (int axis = 0; axis < 3; ++axis) {
       const std::vector<double> y = simulateAxis(a, 400.0, 1440000, seed, axis);
-      const FitResult f = fitNoiseModel(oadev(y, 1.0 / 400.0));
+      const FitResult f = analyzeAxis("x", {y}, 1.0 / 400.0, AnalysisOptions{}).fit;
       ASSERT_TRUE(f.ok);
       EXPECT_NEAR(f.terms[kAngleRandomWalk].value / 2e-4, 1.0, 0.03) << "seed " << seed << " axis " << axis;
       const auto& b = f.terms[kBiasInstability];
@@ -152,7 +153,7 @@ TEST(NoiseModel, RecoversRlgCoefficientsFromSimulation) {
   a.angle_random_walk = 0.001 * M_PI / 180.0 / 60.0;
   for (uint64_t seed : {5u, 6u}) {
     const std::vector<double> y = simulateAxis(a, 400.0, 2 * 3600 * 400, seed, 0);
-    const FitResult f = fitNoiseModel(oadev(y, 1.0 / 400.0));
+    const FitResult f = analyzeAxis("x", {y}, 1.0 / 400.0, AnalysisOptions{}).fit;
     ASSERT_TRUE(f.ok);
     EXPECT_NEAR(f.terms[kQuantization].value / a.quantization, 1.0, 0.03) << "seed " << seed;
     EXPECT_NEAR(f.terms[kAngleRandomWalk].value / a.angle_random_walk, 1.0, 0.10) << "seed " << seed;

@@ -34,6 +34,12 @@ struct AxisAnalysis {
 AxisAnalysis analyzeAxis(const std::string& axis, const std::vector<std::vector<double>>& segments, double tau0,
                          const AnalysisOptions& options);
 
+/// Gyro noise gets redder with tau (quantization, then ARW, flicker, rate random walk): a noise type identified as
+/// bluer than at a shorter tau is a misidentification of the lag-1 ACF method on few points (it can turn a random-walk
+/// point into white PM, whose EDF is a thousand times larger). Replaces each alpha by the running minimum over shorter
+/// taus and recomputes EDF and intervals. allan.hpp itself keeps Stable32's per-point identification.
+void enforceRedderWithTau(DeviationCurve* curve, double confidence);
+
 /// Conventional units for humans: factor from SI and label of each IEEE term
 /// (arcsec, deg/sqrt(h), deg/h, deg/h/sqrt(h), deg/h^2).
 double conventionalFactor(int term);

@@ -23,6 +23,17 @@ const char* conventionalUnit(int term) {
   return (term >= 0 && term < kNumTerms) ? units[term] : "";
 }
 
+void enforceRedderWithTau(DeviationCurve* curve, double confidence) {
+  bool changed = false;
+  for (size_t i = 1; i < curve->points.size(); ++i) {
+    if (curve->points[i].alpha > curve->points[i - 1].alpha) {
+      curve->points[i].alpha = curve->points[i - 1].alpha;
+      changed = true;
+    }
+  }
+  if (changed) fillConfidence(curve, confidence);
+}
+
 AxisAnalysis analyzeAxis(const std::string& axis, const std::vector<std::vector<double>>& segments, double tau0,
                          const AnalysisOptions& options) {
   if (!(tau0 > 0) || !std::isfinite(tau0)) throw std::invalid_argument("sample interval must be positive and finite");
@@ -47,10 +58,16 @@ AxisAnalysis analyzeAxis(const std::string& axis, const std::vector<std::vector<
   a.mean = static_cast<double>(sum / a.samples);
   a.duration_s = static_cast<double>(a.samples) * tau0;
   a.oadev = computeDeviation("oadev", segments, options.input, tau0, options.deviation);
+  enforceRedderWithTau(&a.oadev, options.deviation.confidence);
   if (a.oadev.points.empty())
     throw std::invalid_argument("axis " + axis + ": record too short for any Allan-variance point");
   for (const auto& d : options.deviations)
-    a.curves.push_back(d == "oadev" ? a.oadev : computeDeviation(d, segments, options.input, tau0, options.deviation));
+    if (d == "oadev") {
+      a.curves.push_back(a.oadev);
+    } else {
+      a.curves.push_back(computeDeviation(d, segments, options.input, tau0, options.deviation));
+      enforceRedderWithTau(&a.curves.back(), options.deviation.confidence);
+    }
   a.fit = fitNoiseModel(a.oadev, options.fit);
   return a;
 }

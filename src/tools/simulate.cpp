@@ -42,6 +42,7 @@ Output:
   --output FILE             .bag (sensor_msgs/Imu on --topic) or .csv (t,wx,wy,wz in s and rad/s)
   --topic T                 IMU topic (default /imu); frame --frame (default imu_link)
   --accel-noise V           accelerometer white noise [m/s/sqrt(s)] (default 1e-3), gravity on +z
+  --accel-lsb L             round accelerometer samples to L [m/s^2] (default 0: no rounding)
   --compression C           none | bz2 | lz4 (default lz4)
   --start-time T            stamp of the first sample, s since epoch (default 1700000000)
 )";
@@ -62,7 +63,7 @@ int main(int argc, char** argv) {
   SimulationSpec spec;
   AxisNoise a;
   std::string output, topic = "/imu", frame = "imu_link", compression = "lz4";
-  double accel_noise = 1e-3, start_time = 1700000000.0;
+  double accel_noise = 1e-3, accel_lsb = 0, start_time = 1700000000.0;
   for (int i = 1; i < argc; ++i) {
     const std::string s = argv[i];
     auto v = [&]() -> const char* {
@@ -100,6 +101,7 @@ int main(int argc, char** argv) {
     else if (s == "--topic") topic = v();
     else if (s == "--frame") frame = v();
     else if (s == "--accel-noise") accel_noise = num(s, v());
+    else if (s == "--accel-lsb") accel_lsb = num(s, v());
     else if (s == "--compression") compression = v();
     else if (s == "--start-time") start_time = num(s, v());
     else {
@@ -129,6 +131,7 @@ int main(int argc, char** argv) {
     AxisNoise an;
     an.angle_random_walk = accel_noise;
     an.bias = k == 2 ? 9.80665 : 0.0;
+    an.rate_lsb = accel_lsb;
     acc[k] = simulateAxis(an, spec.rate_hz, static_cast<int64_t>(d.t.size()), spec.seed ^ 0xACCE1ULL, k);
   }
   const bool csv = output.size() > 4 && output.compare(output.size() - 4, 4, ".csv") == 0;
