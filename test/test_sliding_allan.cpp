@@ -273,6 +273,34 @@ TEST(SlidingAllan, StableAfterHugeTransientLeavesTheWindow) {
   EXPECT_GT(s.recomputes(), 50);
 }
 
+TEST(SlidingAllan, NewestSegmentRatesRebuildTheSamples) {
+  SlidingAllanOptions o;
+  o.tau0 = 0.001;
+  o.window_samples = 1000;
+  std::string err;
+  ASSERT_TRUE(parseTauGrid("octave", &o.grid, &err)) << err;
+  SlidingAllan s(o);
+  EXPECT_TRUE(s.newestSegmentRates().empty());
+  const auto y = whiteWithDrift(3000, 0.05, 0.001, 2.0, 17);
+  for (int i = 0; i < 1700; ++i) s.addRate(y[i]);
+  auto r = s.newestSegmentRates();  // window: the last 1000 samples of the first segment
+  ASSERT_EQ(r.size(), 1000u);
+  for (size_t k = 0; k < r.size(); ++k) ASSERT_NEAR(r[k], y[700 + k], 1e-9) << k;
+  s.newSegment();
+  for (int i = 1700; i < 2000; ++i) s.addRate(y[i]);
+  r = s.newestSegmentRates();
+  ASSERT_EQ(r.size(), 300u);
+  for (size_t k = 0; k < r.size(); ++k) ASSERT_NEAR(r[k], y[1700 + k], 1e-9) << k;
+  // Angle input: differences of the angles / tau0.
+  SlidingAllan a(o);
+  double angle = 5.0;
+  a.addAngle(angle);
+  for (int i = 0; i < 50; ++i) a.addAngle(angle += y[i] * o.tau0);
+  r = a.newestSegmentRates();
+  ASSERT_EQ(r.size(), 50u);
+  for (size_t k = 0; k < r.size(); ++k) ASSERT_NEAR(r[k], y[k], 1e-9) << k;
+}
+
 TEST(SlidingAllan, CurveHasEdfAndConfidence) {
   SlidingAllanOptions o;
   o.tau0 = 0.01;

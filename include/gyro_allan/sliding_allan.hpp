@@ -52,6 +52,10 @@ class SlidingAllan {
 
   /// The deviation curve of the current window: one point per grid m with at least one term (tau = m * tau0).
   DeviationCurve curve() const;
+  /// Rate samples [rad/s] of the newest gap-free segment inside the window, rebuilt from phase differences (for
+  /// addAngle: angle differences / tau0). O(segment length); for analyses that need raw samples (wavelet split,
+  /// model check). Exact to ~1e-16 x |phase| / tau0.
+  std::vector<double> newestSegmentRates() const;
 
   const SlidingAllanOptions& options() const { return opt_; }
   const std::vector<int64_t>& factors() const { return m_; }
@@ -90,6 +94,7 @@ class SlidingAllan {
   int64_t start_ = 0;      ///< absolute index of the oldest phase point in the window
   std::deque<int64_t> seg_;  ///< absolute start index of each segment overlapping the window (front may be < start_)
   bool new_segment_ = true;
+  bool angle_input_ = false;  ///< the newest segment came from addAngle
   // Running phase of the current segment, relative to its first sample's rate (keeps |x| small).
   long double phase_ = 0;
   double rate_ref_ = 0;

@@ -138,6 +138,7 @@ void SlidingAllan::addRate(double rate) {
   if (!std::isfinite(rate)) throw std::invalid_argument("SlidingAllan::addRate: non-finite sample");
   if (new_segment_) {
     new_segment_ = false;
+    angle_input_ = false;
     rate_ref_ = rate;
     phase_ = 0;
     seg_.push_back(head_);
@@ -157,11 +158,24 @@ void SlidingAllan::addAngle(double angle) {
   if (!std::isfinite(angle)) throw std::invalid_argument("SlidingAllan::addAngle: non-finite sample");
   if (new_segment_) {
     new_segment_ = false;
+    angle_input_ = true;
     angle_ref_ = angle;
     seg_.push_back(head_);
   }
   pushPhase(angle - angle_ref_);
   ++total_;
+}
+
+std::vector<double> SlidingAllan::newestSegmentRates() const {
+  std::vector<double> out;
+  if (seg_.empty()) return out;
+  const int64_t first = std::max(seg_.back(), start_);
+  if (head_ - first < 2) return out;
+  out.reserve(static_cast<size_t>(head_ - first - 1));
+  const double ref = angle_input_ ? 0.0 : rate_ref_;
+  for (int64_t k = first; k + 1 < head_; ++k)
+    out.push_back((buf_[(k + 1) & mask_] - buf_[k & mask_]) / opt_.tau0 + ref);
+  return out;
 }
 
 int64_t SlidingAllan::samples() const {
