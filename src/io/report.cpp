@@ -221,9 +221,15 @@ void writeFileAtomic(const std::string& path, const std::string& content) {
     if (!f) throw std::runtime_error("cannot write '" + tmp + "'");
     f << content;
     f.flush();
-    if (!f) throw std::runtime_error("cannot write '" + tmp + "' (disk full?)");
+    if (!f) {
+      std::remove(tmp.c_str());  // never leave a half-written .tmp behind
+      throw std::runtime_error("cannot write '" + tmp + "' (disk full?)");
+    }
   }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) throw std::runtime_error("cannot rename '" + tmp + "' to '" + path + "'");
+  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+    std::remove(tmp.c_str());
+    throw std::runtime_error("cannot rename '" + tmp + "' to '" + path + "'");
+  }
 }
 
 }  // namespace gyro_allan
