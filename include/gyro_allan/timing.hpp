@@ -16,6 +16,7 @@ struct StampReport {
   int64_t zero_stamp = 0;      ///< dropped: stamp == 0
   int64_t out_of_order = 0;    ///< dropped: stamp earlier than the previous kept one
   int64_t duplicate = 0;       ///< dropped: stamp equal to (or closer than half a period to) the previous kept one
+  int64_t short_segment = 0;   ///< dropped: samples of gap-free runs shorter than min_segment (isolated by gaps)
   int64_t gaps = 0;            ///< splits: interval > gap_factor nominal periods
   double gap_time_s = 0;       ///< time missing in gaps, s
   double nominal_period_s = 0; ///< median interval between consecutive kept stamps

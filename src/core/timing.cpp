@@ -24,6 +24,7 @@ std::vector<std::string> StampReport::warnings() const {
   add(zero_stamp, "samples with zero stamp dropped");
   add(out_of_order, "out-of-order stamps dropped");
   add(duplicate, "duplicate stamps dropped");
+  add(short_segment, "samples isolated between gaps dropped");
   if (gaps > 0)
     w.push_back(std::to_string(gaps) + " gaps (" + std::to_string(gap_time_s) +
                 " s missing): deviations computed over gap-free segments");
@@ -66,6 +67,20 @@ SanitizedSeries sanitize(const std::vector<double>& t, const std::vector<const s
     }
     idx.push_back(i);
   }
+  // A single stamp ahead of both neighbours (t[k] > t[k+1] while the previous kept stamp < t[k+1]) would otherwise be
+  // kept and make every later sample "out of order" until time catches up with it: drop the glitch itself instead.
+  {
+    std::vector<size_t> clean;
+    clean.reserve(idx.size());
+    for (size_t k = 0; k < idx.size(); ++k) {
+      if (k + 1 < idx.size() && t[idx[k]] > t[idx[k + 1]] && (clean.empty() || t[clean.back()] < t[idx[k + 1]])) {
+        ++rep.out_of_order;
+        continue;
+      }
+      clean.push_back(idx[k]);
+    }
+    idx.swap(clean);
+  }
   // Nominal period: the median of positive consecutive intervals (robust to a few bad stamps).
   double period = options.nominal_rate_hz > 0 ? 1.0 / options.nominal_rate_hz : 0.0;
   if (period <= 0) {
@@ -88,6 +103,7 @@ SanitizedSeries sanitize(const std::vector<double>& t, const std::vector<const s
       else {
         // Too short to carry a difference: its samples are dropped and counted as missing time.
         for (size_t j = seg_start; j < end; ++j) {
+          ++rep.short_segment;
           out.t.pop_back();
           for (auto& a : out.v)
             if (!a.empty()) a.pop_back();
