@@ -131,6 +131,7 @@ YAML::Node buildReport(const ReportMeta& meta, const std::vector<AxisAnalysis>& 
   st["zero_stamp"] = meta.stamps.zero_stamp;
   st["out_of_order"] = meta.stamps.out_of_order;
   st["duplicate"] = meta.stamps.duplicate;
+  st["short_segment"] = meta.stamps.short_segment;
   st["gaps"] = meta.stamps.gaps;
   st["gap_time_s"] = num(meta.stamps.gap_time_s);
   st["rate_changed"] = meta.stamps.rate_changed;
