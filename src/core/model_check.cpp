@@ -657,7 +657,8 @@ ModelCheck checkModel(const std::vector<double>& rate, double tau0, const Deviat
         }
       }
     } else if (rb.size() >= 16) {
-      const WarmupFit wf = fitWarmup(rb, b * tau0, T / 200, 2 * T);
+      // theta <= T/3: a warm-up that does not settle within the record cannot be told from a ramp or a random walk.
+      const WarmupFit wf = fitWarmup(rb, b * tau0, T / 200, T / 3);
       // White-noise sigma of the block means from their first differences: a random walk or flicker makes the fit's
       // own a_sigma optimistic, so the evidence threshold is high and the BIC decides.
       if (wf.ok && wf.a_sigma > 0 && std::fabs(wf.a) / wf.a_sigma >= opts.warmup_min_z) {
@@ -677,7 +678,7 @@ ModelCheck checkModel(const std::vector<double>& rate, double tau0, const Deviat
         };
         c.p0 = wf.theta;
         c.p_lo = wf.theta / 4;
-        c.p_hi = wf.theta * 4;
+        c.p_hi = std::min(wf.theta * 4, T / 3);
         c.n_nonlinear = 1;
         c.nonlinear_name = "theta_s";
         c.amplitude_name = "amplitude";
@@ -794,9 +795,11 @@ ModelCheck checkModel(const std::vector<double>& rate, double tau0, const Deviat
     if (best_i < 0) break;
     Candidate& c = cands[static_cast<size_t>(best_i)];
     const double gain = current.bic - best.model.bic;
-    if (gain < opts.bic_margin) {
-      mc.rejected.push_back(c.type + ": BIC improves by only " + fmt("%.1f", gain) + " (< " +
-                            fmt("%.0f", opts.bic_margin) + "; " + c.evidence + ")");
+    const bool stochastic = c.nature == Nature::GaussMarkov || c.nature == Nature::Narrowband;
+    const double margin = stochastic ? opts.bic_margin_stochastic : opts.bic_margin;
+    if (gain < margin) {
+      mc.rejected.push_back(c.type + ": BIC improves by only " + fmt("%.1f", gain) + " (< " + fmt("%.0f", margin) +
+                            "; " + c.evidence + ")");
       c.used = true;
       // The best one failed: the others are worse by construction.
       for (auto& o : cands)
