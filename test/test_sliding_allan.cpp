@@ -291,6 +291,9 @@ TEST(SlidingAllan, NewestSegmentRatesRebuildTheSamples) {
   r = s.newestSegmentRates();
   ASSERT_EQ(r.size(), 300u);
   for (size_t k = 0; k < r.size(); ++k) ASSERT_NEAR(r[k], y[1700 + k], 1e-9) << k;
+  r = s.newestSegmentRates(120);
+  ASSERT_EQ(r.size(), 120u);
+  for (size_t k = 0; k < r.size(); ++k) ASSERT_NEAR(r[k], y[1880 + k], 1e-9) << k;
   // Angle input: differences of the angles / tau0.
   SlidingAllan a(o);
   double angle = 5.0;

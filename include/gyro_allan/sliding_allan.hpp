@@ -54,8 +54,8 @@ class SlidingAllan {
   DeviationCurve curve() const;
   /// Rate samples [rad/s] of the newest gap-free segment inside the window, rebuilt from phase differences (for
   /// addAngle: angle differences / tau0). O(segment length); for analyses that need raw samples (wavelet split,
-  /// model check). Exact to ~1e-16 x |phase| / tau0.
-  std::vector<double> newestSegmentRates() const;
+  /// model check). Exact to ~1e-16 x |phase| / tau0. max_samples > 0 keeps only the newest max_samples.
+  std::vector<double> newestSegmentRates(int64_t max_samples = 0) const;
 
   const SlidingAllanOptions& options() const { return opt_; }
   const std::vector<int64_t>& factors() const { return m_; }

@@ -166,10 +166,11 @@ void SlidingAllan::addAngle(double angle) {
   ++total_;
 }
 
-std::vector<double> SlidingAllan::newestSegmentRates() const {
+std::vector<double> SlidingAllan::newestSegmentRates(int64_t max_samples) const {
   std::vector<double> out;
   if (seg_.empty()) return out;
-  const int64_t first = std::max(seg_.back(), start_);
+  int64_t first = std::max(seg_.back(), start_);
+  if (max_samples > 0) first = std::max(first, head_ - 1 - max_samples);
   if (head_ - first < 2) return out;
   out.reserve(static_cast<size_t>(head_ - first - 1));
   const double ref = angle_input_ ? 0.0 : rate_ref_;

@@ -10,6 +10,9 @@
 #include <gyro_allan/NoiseReport.h>
 #include <pluginlib/class_list_macros.hpp>
 
+#include "gyro_allan/model_check.hpp"
+#include "gyro_allan/wavelet_split.hpp"
+
 namespace gyro_allan {
 namespace {
 
@@ -88,13 +91,16 @@ void AnalyzerNodelet::loadParams() {
     parseTauGrid(p_.tau_grid, &p_.grid, &err);
   }
   pnh.param<std::string>("method", p_.method, def.method);
-  if (p_.method == "wavelet_split") {
-    NODELET_ERROR("parameter ~method = 'wavelet_split' is not available in this build (no wavelet_split.hpp); "
-                  "using 'joint_fit'");
+  if (p_.method != "joint_fit" && p_.method != "wavelet_split") {
+    NODELET_ERROR("parameter ~method = '%s' is unknown (joint_fit, wavelet_split); using 'joint_fit'",
+                  p_.method.c_str());
     p_.method = "joint_fit";
-  } else if (p_.method != "joint_fit") {
-    NODELET_ERROR("parameter ~method = '%s' is unknown (joint_fit); using 'joint_fit'", p_.method.c_str());
-    p_.method = "joint_fit";
+  }
+  pnh.param("model_check", p_.model_check, def.model_check);
+  getD("raw_max_s", &p_.raw_max_s, def.raw_max_s);
+  if (!(p_.raw_max_s > 0)) {
+    NODELET_ERROR("parameter ~raw_max_s = %g must be > 0 s; using %g s", p_.raw_max_s, def.raw_max_s);
+    p_.raw_max_s = def.raw_max_s;
   }
   pnh.param<std::string>("input", p_.input, def.input);
   if (p_.input != "imu" && p_.input != "angle" && p_.input != "auto") {
@@ -244,8 +250,9 @@ void AnalyzerNodelet::onInit() {
     angle_sub_ =
         nh.subscribe("angle", queue, &AnalyzerNodelet::angleCallback, this, ros::TransportHints().tcpNoDelay());
   temp_sub_ = nh.subscribe("temperature", 100, &AnalyzerNodelet::temperatureCallback, this);
-  NODELET_INFO("gyro_allan analyzer: input %s, window %g s, hop %g s, tau grid %s, method %s, rate %s",
+  NODELET_INFO("gyro_allan analyzer: input %s, window %g s, hop %g s, tau grid %s, method %s%s, rate %s",
                p_.input.c_str(), p_.window_s, p_.hop_s, p_.tau_grid.c_str(), p_.method.c_str(),
+               p_.model_check ? " + model check" : "",
                p_.expected_rate_hz > 0 ? std::to_string(p_.expected_rate_hz).c_str() : "learned");
 }
 
@@ -440,6 +447,11 @@ void AnalyzerNodelet::maybeHop(const ros::Time& stamp) {
   snap->rate_hz = 1.0 / tau0_;
   snap->fill = allan_[0]->fill();
   snap->temperature = temp_count_ > 0 ? temp_sum_ / temp_count_ : std::numeric_limits<double>::quiet_NaN();
+  if (p_.method == "wavelet_split" || p_.model_check) {
+    // O(raw_max_s x rate) copy in the callback, once per hop (600 s at 1 kHz: 3 x 4.8 MB).
+    const int64_t max_raw = std::max<int64_t>(16, std::llround(p_.raw_max_s / tau0_));
+    for (int a = 0; a < 3; ++a) snap->raw[a] = allan_[a]->newestSegmentRates(max_raw);
+  }
   temp_sum_ = 0;
   temp_count_ = 0;
   bool replaced = false;
@@ -526,6 +538,79 @@ void AnalyzerNodelet::publishResults(const Snapshot& snap) {
       fits[a].ok = false;
       fits[a].message = e.what();
     }
+    std::vector<double> denoised_adev, removed_adev;
+    if (p_.method == "wavelet_split") {
+      std::string why;
+      if (snap.raw[a].size() < 1024) {
+        why = "too few gap-free samples for the wavelet split";
+      } else {
+        try {
+          WaveletSplitOptions wo;
+          wo.deviation.grid = p_.grid;
+          const WaveletSplitResult ws = waveletSplit(snap.raw[a], c.tau0, wo);
+          if (ws.ok) {
+            FitResult& f = fits[a];
+            f.ok = true;
+            f.message.clear();
+            f.terms = ws.terms;
+            f.rms_log10 = ws.fit_error.rms_log10;
+            f.chi2_dof = ws.fit_error.chi2_dof;
+            f.model_var.assign(c.points.size(), 0.0);
+            for (size_t i = 0; i < c.points.size(); ++i)
+              for (int t = 0; t < kNumTerms; ++t)
+                f.model_var[i] += f.terms[t].value * f.terms[t].value * noiseTermBasis(t, c.points[i].tau);
+            auto byM = [&c](const DeviationCurve& part, std::vector<double>* out) {
+              for (const auto& pt : c.points) {
+                double v = std::numeric_limits<double>::quiet_NaN();
+                for (const auto& q : part.points)
+                  if (q.m == pt.m) v = q.dev;
+                out->push_back(v);
+              }
+            };
+            byM(ws.denoised_curve, &denoised_adev);
+            byM(ws.removed_curve, &removed_adev);
+          } else {
+            why = ws.message;
+          }
+        } catch (const std::exception& e) {
+          why = e.what();
+        }
+      }
+      if (!why.empty()) {
+        fits[a].ok = false;
+        fits[a].message = "wavelet_split: " + why;
+      }
+    }
+    if (p_.model_check && fits[a].ok && snap.raw[a].size() >= 1024) {
+      try {
+        // The check needs the curve and fit of exactly the raw samples (the newest gap-free part of the window).
+        DeviationCurve raw_curve;
+        if (static_cast<int64_t>(snap.raw[a].size()) == snap.samples) {
+          raw_curve = c;
+        } else {
+          DeviationOptions dopt;
+          dopt.grid = p_.grid;
+          dopt.confidence = p_.confidence;
+          raw_curve = computeDeviation("oadev", snap.raw[a], InputKind::Rate, c.tau0, dopt);
+        }
+        const FitResult raw_fit = fitWithNoiseId(&raw_curve);
+        if (raw_fit.ok) {
+          const ModelCheck mc = checkModel(snap.raw[a], c.tau0, raw_curve, raw_fit, ModelCheckOptions());
+          for (const auto& eff : mc.effects) {
+            AddedEffect em;
+            em.type = eff.type;
+            for (const auto& kv : eff.parameters) {
+              em.param_names.push_back(kv.first);
+              em.param_values.push_back(kv.second.value);
+              em.param_sigmas.push_back(kv.second.sigma);
+            }
+            axis.effects.push_back(em);
+          }
+        }
+      } catch (const std::exception& e) {
+        NODELET_WARN_THROTTLE(30.0, "gyro_allan analyzer: model check failed on axis %s: %s", kAxisName[a], e.what());
+      }
+    }
     const FitResult& f = fits[a];
     axis.fit_ok = f.ok;
     axis.message = f.ok ? "" : (f.message.empty() ? "fit failed" : f.message);
@@ -557,6 +642,8 @@ void AnalyzerNodelet::publishResults(const Snapshot& snap) {
       }
       if (f.ok && f.model_var.size() == c.points.size())
         for (double mv : f.model_var) cm.model_adev.push_back(std::sqrt(std::max(0.0, mv)));
+      cm.denoised_adev = denoised_adev;
+      cm.removed_adev = removed_adev;
       curve_pub_[a].publish(cm);
     }
   }

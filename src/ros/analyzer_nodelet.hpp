@@ -44,6 +44,8 @@ struct AnalyzerParams {
   double confidence = 0.683;
   int recompute_steps = 2;
   bool publish_curves = true;
+  bool model_check = false;        ///< run checkModel on the raw samples every hop (fills AxisNoiseFit.effects)
+  double raw_max_s = 600;          ///< raw-sample analyses (wavelet split, model check) use at most this much [s]
   double recent_s = 10;            ///< diagnostics: a problem is "recent" for this long (ROS time) [s]
   double error_fraction = 0.01;    ///< diagnostics: recent bad samples / expected samples above which ERROR
   double rms_log10_warn = 0.1, rms_log10_error = 0.3;
@@ -73,6 +75,7 @@ class AnalyzerNodelet : public nodelet::Nodelet {
     int64_t samples = 0;
     int segments = 0;
     double rate_hz = 0, fill = 0, temperature = 0;
+    std::array<std::vector<double>, 3> raw;  ///< newest segment's rates, for wavelet_split / model_check
   };
   struct FitSummary {
     bool have = false;
