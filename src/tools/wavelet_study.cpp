@@ -50,7 +50,8 @@ void usage() {
   std::fprintf(stderr,
                "usage: wavelet_study [--seeds N] [--scenario NAME|all] [--level L] [--rule R] [--wavelet W] [--scaling S]\n"
                "                     [--max-share F] [--free-ratio R]\n"
-               "  scenarios: dither400 saw400 dither100 saw100 nodither400 (all: the first four)\n");
+               "  scenarios: dither400 saw400 dither100 saw100 dither100_2h saw100_2h nodither400\n"
+               "  (all: every scenario but nodither400; all+: every scenario)\n");
 }
 
 }  // namespace
@@ -87,6 +88,8 @@ int main(int argc, char** argv) {
       {"saw400", 400, 7200, false, 10 * kDegPerHour},
       {"dither100", 100, 3600, true, 0.0},
       {"saw100", 100, 3600, false, 10 * kDegPerHour},
+      {"dither100_2h", 100, 7200, true, 0.0},
+      {"saw100_2h", 100, 7200, false, 10 * kDegPerHour},
       {"nodither400", 400, 7200, false, 0.0},
   };
   std::printf("# wavelet_study: Q = %.3g rad (0.35 arcsec), N = %.4g rad/sqrt(s) (0.001 deg/sqrt(h)), %d seeds\n", kQ,
@@ -98,7 +101,7 @@ int main(int argc, char** argv) {
               noiseScalingName(wopt.scaling).c_str());
   std::printf("%-12s %-26s %9s %9s %9s %9s\n", "scenario", "method", "Q bias", "Q spread", "N bias", "N spread");
   for (const auto& sc : all) {
-    if (which == "all" ? sc.name == "nodither400" : sc.name != which) continue;
+    if (which == "all" ? sc.name == "nodither400" : (which == "all+" ? false : sc.name != which)) continue;
     std::map<std::string, Stats> st;
     std::vector<std::string> order = {"joint_fit", "joint_fit(Q,N only)", "wavelet_split", "  Q angle / N allan",
                                       "  Q allan(removed) / N_r", "  Q allan + N_r back"};
