@@ -51,6 +51,11 @@ size_t AnalyzerNodelet::EventLog::recent(const ros::Time& now, double recent_s) 
 AnalyzerNodelet::AnalyzerNodelet() = default;
 
 AnalyzerNodelet::~AnalyzerNodelet() {
+  // Stop the inputs first: shutdown() waits for a callback that is running, so none touches a dying member.
+  diag_timer_.stop();
+  imu_sub_.shutdown();
+  angle_sub_.shutdown();
+  temp_sub_.shutdown();
   {
     std::lock_guard<std::mutex> lock(work_mutex_);
     stop_ = true;
