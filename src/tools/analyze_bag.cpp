@@ -93,7 +93,10 @@ Args parseArgs(int argc, char** argv) {
     else if (s == "--temperature-topic") a.temperature_topic = value();
     else if (s == "--output" || s == "-o") a.output = value();
     else if (s == "--csv") a.csv = value();
-    else if (s == "--rate") a.rate = parseDouble(s, value());
+    else if (s == "--rate") {
+      a.rate = parseDouble(s, value());
+      if (!(a.rate > 0)) throw UsageError(std::string("--rate must be > 0, got ") + argv[i]);
+    }
     else if (s == "--units") a.units = value();
     else if (s == "--input") a.input = value();
     else if (s == "--tau-grid") a.tau_grid = value();
