@@ -9,6 +9,8 @@
 #include <string>
 #include <vector>
 
+#include <console_bridge/console.h>
+
 #include "gyro_allan/analysis.hpp"
 #include "gyro_allan/csv_input.hpp"
 #include "gyro_allan/io/bag_input.hpp"
@@ -253,6 +255,9 @@ int run(const Args& args) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // rosbag/cpp_common report parse problems through console_bridge before throwing: silence it so a corrupt bag
+  // gives our one-line error only.
+  console_bridge::setLogLevel(console_bridge::CONSOLE_BRIDGE_LOG_NONE);
   try {
     return run(parseArgs(argc, argv));
   } catch (const UsageError& e) {
