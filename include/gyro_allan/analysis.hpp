@@ -6,7 +6,9 @@
 #include <vector>
 
 #include "gyro_allan/allan.hpp"
+#include "gyro_allan/model_check.hpp"
 #include "gyro_allan/noise_model.hpp"
+#include "gyro_allan/wavelet_split.hpp"
 
 namespace gyro_allan {
 
@@ -15,6 +17,13 @@ struct AnalysisOptions {
   FitOptions fit;                                   ///< IEEE 952 fit settings
   std::vector<std::string> deviations{"oadev"};     ///< curves written out; the fit always uses oadev
   InputKind input = InputKind::Rate;                ///< rate samples (rad/s) or angle samples (rad)
+  /// Method whose coefficients are the answer: "auto" (wavelet_split when quantization dominates the shortest tau,
+  /// else joint_fit), "joint_fit" or "wavelet_split".
+  std::string method = "auto";
+  bool wavelet_split = true;                        ///< run the wavelet split (needed for method wavelet_split)
+  WaveletSplitOptions split;
+  bool model_check = true;                          ///< run the closed loop (residual -> effect -> refit)
+  ModelCheckOptions check;
 };
 
 struct AxisAnalysis {
@@ -26,13 +35,27 @@ struct AxisAnalysis {
   double mean = 0;                  ///< mean of the samples (bias for rate input), SI
   DeviationCurve oadev;             ///< the curve the model is fitted to
   std::vector<DeviationCurve> curves;  ///< requested deviations, in the order asked
-  FitResult fit;
+  FitResult fit;                    ///< joint_fit: IEEE 952 fit of oadev
+  bool has_split = false;
+  WaveletSplitResult split;         ///< wavelet_split (on the longest gap-free segment)
+  bool has_check = false;
+  ModelCheck check;                 ///< model check of the joint fit (on the longest gap-free segment)
+  std::string method;               ///< method chosen for `coefficients`
+  std::string method_reason;        ///< why
+  /// The answer: the chosen method's coefficients; for joint_fit with effects added by the model check, the base
+  /// coefficients of the joint refit.
+  std::array<Coefficient, kNumTerms> coefficients;
+  FitError final_error;             ///< rms_log10 / chi2_dof of the model behind `coefficients` (effects included)
+  std::vector<double> final_model_var;  ///< that model's AVAR at oadev's points
+  std::vector<std::string> notes;   ///< human notes (segment used, stages skipped and why)
 };
 
 /// Validates options (throws std::invalid_argument naming the problem) and analyses one axis.
 /// Throws std::invalid_argument when the data is too short for any Allan point.
+/// `temperature`, when given, holds one temperature per sample, split like `segments` (degC).
 AxisAnalysis analyzeAxis(const std::string& axis, const std::vector<std::vector<double>>& segments, double tau0,
-                         const AnalysisOptions& options);
+                         const AnalysisOptions& options,
+                         const std::vector<std::vector<double>>* temperature = nullptr);
 
 /// Gyro noise gets redder with tau (quantization, then ARW, flicker, rate random walk): a noise type identified as
 /// bluer than at a shorter tau is a misidentification of the lag-1 ACF method on few points (it can turn a random-walk

@@ -41,6 +41,9 @@ struct SanitizedSeries {
   StampReport report;
   /// Values of one axis split into segments (for computeDeviation over segments).
   std::vector<std::vector<double>> segmentValues(int axis) const;
+  /// A side series (e.g. temperature at 1 Hz: stamps ts, values vs, same time origin) linearly interpolated onto the
+  /// kept stamps, split like the segments; held constant beyond its ends. Empty when it has no finite point.
+  std::vector<std::vector<double>> interpolateSegments(const std::vector<double>& ts, const std::vector<double>& vs) const;
 };
 
 struct SanitizeOptions {

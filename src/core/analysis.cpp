@@ -35,7 +35,11 @@ void enforceRedderWithTau(DeviationCurve* curve, double confidence) {
 }
 
 AxisAnalysis analyzeAxis(const std::string& axis, const std::vector<std::vector<double>>& segments, double tau0,
-                         const AnalysisOptions& options) {
+                         const AnalysisOptions& options, const std::vector<std::vector<double>>* temperature) {
+  if (options.method != "auto" && options.method != "joint_fit" && options.method != "wavelet_split")
+    throw std::invalid_argument("unknown method '" + options.method + "' (auto, joint_fit, wavelet_split)");
+  if (options.method == "wavelet_split" && !options.wavelet_split)
+    throw std::invalid_argument("method wavelet_split needs the wavelet split enabled");
   if (!(tau0 > 0) || !std::isfinite(tau0)) throw std::invalid_argument("sample interval must be positive and finite");
   if (!(options.deviation.confidence > 0 && options.deviation.confidence < 1))
     throw std::invalid_argument("confidence must be in (0, 1)");
@@ -69,6 +73,86 @@ AxisAnalysis analyzeAxis(const std::string& axis, const std::vector<std::vector<
       enforceRedderWithTau(&a.curves.back(), options.deviation.confidence);
     }
   a.fit = fitNoiseModel(a.oadev, options.fit);
+
+  // Stages that need contiguous raw samples run on the longest gap-free segment.
+  size_t longest = 0;
+  for (size_t i = 1; i < segments.size(); ++i)
+    if (segments[i].size() > segments[longest].size()) longest = i;
+  const std::vector<double>& rate_seg = segments[longest];
+  if (a.segments > 1)
+    a.notes.push_back("wavelet split and model check use the longest gap-free segment (" +
+                      std::to_string(rate_seg.size()) + " of " + std::to_string(a.samples) + " samples)");
+  const bool rate_input = options.input == InputKind::Rate;
+  if (!rate_input && (options.wavelet_split || options.model_check))
+    a.notes.push_back("wavelet split and model check need rate samples: skipped for angle input");
+  if (rate_input && options.wavelet_split) {
+    WaveletSplitOptions so = options.split;
+    so.deviation = options.deviation;
+    try {
+      a.split = waveletSplit(rate_seg, tau0, so);
+      a.has_split = true;
+      if (!a.split.ok) a.notes.push_back("wavelet split: " + a.split.message);
+    } catch (const std::invalid_argument& e) {
+      a.notes.push_back(std::string("wavelet split skipped: ") + e.what());
+    }
+  }
+  if (rate_input && options.model_check && a.fit.ok) {
+    ModelCheckOptions co = options.check;
+    co.fit = options.fit;
+    const std::vector<double>* temp = nullptr;
+    if (temperature && longest < temperature->size() && (*temperature)[longest].size() == rate_seg.size())
+      temp = &(*temperature)[longest];
+    try {
+      a.check = checkModel(rate_seg, tau0, a.oadev, a.fit, co, temp);
+      a.has_check = a.check.ok;
+      if (!a.check.ok) a.notes.push_back("model check: " + a.check.message);
+    } catch (const std::invalid_argument& e) {
+      a.notes.push_back(std::string("model check skipped: ") + e.what());
+    }
+  }
+
+  // The answer.
+  const bool split_ok = a.has_split && a.split.ok;
+  std::string method = options.method;
+  if (method == "auto") {
+    // Quantization-limited gyros (RLG/FOG pulse outputs): where 3Q^2/tau^2 is most of the AVAR at the shortest tau the
+    // Allan fit trades Q against N, and the wavelet split separates them by scale (docs/wavelet_split.md).
+    const auto& q = a.fit.terms[kQuantization];
+    const double q_share = a.oadev.points.empty() || !q.supported
+                               ? 0.0
+                               : termVariance(a.fit, kQuantization, a.oadev.points.front().tau) / a.oadev.points.front().var;
+    if (split_ok && q_share >= 0.5) {
+      method = "wavelet_split";
+      a.method_reason = "quantization is " + std::to_string(static_cast<int>(100 * q_share)) +
+                        " % of the Allan variance at the shortest tau";
+    } else {
+      method = "joint_fit";
+      a.method_reason = split_ok ? "quantization does not dominate the shortest tau" : "wavelet split not available";
+    }
+  } else {
+    a.method_reason = "requested";
+  }
+  if (method == "wavelet_split" && !split_ok)
+    throw std::invalid_argument("axis " + axis + ": wavelet split failed: " + (a.has_split ? a.split.message : "not run"));
+  a.method = method;
+  a.final_model_var.resize(a.oadev.points.size());
+  if (method == "wavelet_split") {
+    a.coefficients = a.split.terms;
+    FitResult tmp;
+    tmp.terms = a.split.terms;
+    for (size_t i = 0; i < a.oadev.points.size(); ++i) a.final_model_var[i] = modelVariance(tmp, a.oadev.points[i].tau);
+    int n_params = 0;
+    for (const auto& c : a.split.terms) n_params += c.supported ? 1 : 0;
+    a.final_error = fitError(a.oadev, a.final_model_var, a.fit.used, n_params, options.fit.rms_min_edf);
+  } else if (a.has_check && !a.check.effects.empty()) {
+    a.coefficients = a.check.fit_after.terms;
+    a.final_model_var = a.check.fit_after.model_var;
+    a.final_error = {a.check.after.rms_log10, a.check.after.chi2_dof, a.check.fit_after.n_rms};
+  } else {
+    a.coefficients = a.fit.terms;
+    a.final_model_var = a.fit.model_var;
+    a.final_error = {a.fit.rms_log10, a.fit.chi2_dof, a.fit.n_rms};
+  }
   return a;
 }
 

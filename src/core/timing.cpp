@@ -41,6 +41,33 @@ std::vector<std::vector<double>> SanitizedSeries::segmentValues(int axis) const 
   return out;
 }
 
+std::vector<std::vector<double>> SanitizedSeries::interpolateSegments(const std::vector<double>& ts,
+                                                                      const std::vector<double>& vs) const {
+  std::vector<std::pair<double, double>> pts;
+  for (size_t i = 0; i < ts.size() && i < vs.size(); ++i)
+    if (std::isfinite(ts[i]) && std::isfinite(vs[i]) && ts[i] != 0) pts.emplace_back(ts[i], vs[i]);
+  std::vector<std::vector<double>> out;
+  if (pts.empty()) return out;
+  std::stable_sort(pts.begin(), pts.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  for (const auto& seg : segments) {
+    std::vector<double> v;
+    v.reserve(seg.size());
+    size_t j = 0;
+    for (size_t i = seg.begin; i < seg.end; ++i) {
+      const double x = t[i];
+      while (j + 1 < pts.size() && pts[j + 1].first <= x) ++j;
+      if (x <= pts.front().first) v.push_back(pts.front().second);
+      else if (j + 1 >= pts.size()) v.push_back(pts.back().second);
+      else {
+        const double w = (x - pts[j].first) / (pts[j + 1].first - pts[j].first);
+        v.push_back(pts[j].second + w * (pts[j + 1].second - pts[j].second));
+      }
+    }
+    out.push_back(std::move(v));
+  }
+  return out;
+}
+
 SanitizedSeries sanitize(const std::vector<double>& t, const std::vector<const std::vector<double>*>& axes,
                          const SanitizeOptions& options) {
   if (axes.empty() || axes.size() > 3) throw std::invalid_argument("sanitize: 1 to 3 axes expected");

@@ -29,9 +29,66 @@ YAML::Node coefficientNode(const Coefficient& c, const char* unit) {
   return n;
 }
 
-YAML::Node coefficientsNode(const FitResult& fit) {
+YAML::Node coefficientsNode(const std::array<Coefficient, kNumTerms>& terms) {
   YAML::Node n;
-  for (int t = 0; t < kNumTerms; ++t) n[noiseTermKey(t)] = coefficientNode(fit.terms[static_cast<size_t>(t)], noiseTermUnit(t));
+  for (int t = 0; t < kNumTerms; ++t) n[noiseTermKey(t)] = coefficientNode(terms[static_cast<size_t>(t)], noiseTermUnit(t));
+  return n;
+}
+YAML::Node coefficientsNode(const FitResult& fit) { return coefficientsNode(fit.terms); }
+
+YAML::Node errorNode(double rms_log10, double chi2_dof) {
+  YAML::Node n;
+  n["rms_log10"] = num(rms_log10);
+  n["chi2_dof"] = num(chi2_dof);
+  return n;
+}
+
+YAML::Node splitNode(const WaveletSplitResult& w) {
+  YAML::Node n;
+  n["ok"] = w.ok;
+  if (!w.ok) n["message"] = w.message;
+  n["coefficients"] = coefficientsNode(w.terms);
+  n["fit"] = errorNode(w.fit_error.rms_log10, w.fit_error.chi2_dof);
+  n["wavelet"] = w.wavelet;
+  n["level"] = w.level;
+  n["split_frequency_hz"] = num(w.split_frequency_hz);
+  n["kept_fraction"] = num(w.kept_fraction);
+  n["quantization_white"] = w.quantization_white;
+  n["removed_arw_share"] = num(w.removed_arw_share);
+  n["removed_angle_std_rad"] = num(w.removed_angle.std);
+  n["removed_angle_max_abs_rad"] = num(w.removed_angle.max_abs);
+  YAML::Node est;
+  est["q_angle"] = num(w.q_angle);
+  est["q_allan"] = num(w.q_allan);
+  est["n_wavelet"] = num(w.n_wavelet);
+  est["n_allan"] = num(w.n_allan);
+  est["n_removed"] = num(w.n_removed);
+  n["estimates"] = est;
+  n["denoised_fit"] = errorNode(w.denoised_fit_error.rms_log10, w.denoised_fit_error.chi2_dof);
+  n["removed_fit"] = errorNode(w.removed_fit_error.rms_log10, w.removed_fit_error.chi2_dof);
+  return n;
+}
+
+YAML::Node checkNode(const ModelCheck& c) {
+  YAML::Node n;
+  n["before"] = errorNode(c.before.rms_log10, c.before.chi2_dof);
+  n["residual"] = c.residual_before.summary;
+  n["effects"] = YAML::Node(YAML::NodeType::Sequence);
+  for (const auto& e : c.effects) {
+    YAML::Node en;
+    en["type"] = e.type;
+    for (const auto& kv : e.parameters) {
+      en["parameters"][kv.first]["value"] = num(kv.second.value);
+      en["parameters"][kv.first]["sigma"] = num(kv.second.sigma);
+    }
+    en["evidence"] = e.evidence;
+    en["delta_bic"] = num(e.delta_bic);
+    n["effects"].push_back(en);
+  }
+  n["after"] = errorNode(c.after.rms_log10, c.after.chi2_dof);
+  n["coefficients"] = coefficientsNode(c.fit_after);
+  n["rejected"] = YAML::Node(YAML::NodeType::Sequence);
+  for (const auto& r : c.rejected) n["rejected"].push_back(r);
   return n;
 }
 
@@ -121,7 +178,7 @@ YAML::Node buildReport(const ReportMeta& meta, const std::vector<AxisAnalysis>& 
   in["kind"] = meta.input;
   in["units"] = meta.input_units;
   r["input"] = in;
-  r["method"] = "joint_fit";
+  r["method"] = meta.method;
   r["tau_grid"] = meta.tau_grid;
   r["confidence"] = num(meta.confidence);
   YAML::Node st;
@@ -146,12 +203,18 @@ YAML::Node buildReport(const ReportMeta& meta, const std::vector<AxisAnalysis>& 
     n["rate_hz"] = num(a.rate_hz);
     n["duration_s"] = num(a.duration_s);
     n["mean"] = num(a.mean);
-    n["coefficients"] = coefficientsNode(a.fit);
-    n["fit"] = fitNode(a.fit);
+    n["method"] = a.method;
+    n["method_reason"] = a.method_reason;
+    n["coefficients"] = coefficientsNode(a.coefficients);
+    n["fit"] = errorNode(a.final_error.rms_log10, a.final_error.chi2_dof);
     YAML::Node jf;
     jf["coefficients"] = coefficientsNode(a.fit);
     jf["fit"] = fitNode(a.fit);
     n["methods"]["joint_fit"] = jf;
+    if (a.has_split) n["methods"]["wavelet_split"] = splitNode(a.split);
+    if (a.has_check) n["model_check"] = checkNode(a.check);
+    if (!a.notes.empty())
+      for (const auto& note : a.notes) n["notes"].push_back(note);
     ax[a.axis] = n;
   }
   r["axes"] = ax;
@@ -175,15 +238,22 @@ std::string toJson(const YAML::Node& node) {
 std::string allanCsv(const std::vector<AxisAnalysis>& axes) {
   std::ostringstream o;
   o << std::setprecision(10);
-  o << "axis,deviation,tau_s,m,dev,dev_lo,dev_hi,edf,alpha,n_terms,model_dev\n";
+  o << "axis,deviation,tau_s,m,dev,dev_lo,dev_hi,edf,alpha,n_terms,model_dev,model_joint_dev,model_check_dev\n";
+  auto dev = [](double var) { return std::sqrt(std::max(0.0, var)); };
   for (const auto& a : axes) {
+    // Model columns (oadev rows only): the answer's model, the plain IEEE joint fit ("before") and the model check's
+    // refit with its effects ("after"; empty when the check did not run).
     auto rows = [&](const DeviationCurve& c, bool with_model) {
       for (size_t i = 0; i < c.points.size(); ++i) {
         const auto& p = c.points[i];
-        const double model = with_model ? std::sqrt(std::max(0.0, modelVariance(a.fit, p.tau))) : NAN;
         o << a.axis << ',' << c.name << ',' << p.tau << ',' << p.m << ',' << p.dev << ',' << p.dev_lo << ','
           << p.dev_hi << ',' << p.edf << ',' << p.alpha << ',' << p.n_terms << ',';
-        if (with_model) o << model;
+        if (with_model && i < a.final_model_var.size()) {
+          o << dev(a.final_model_var[i]) << ',' << dev(i < a.fit.model_var.size() ? a.fit.model_var[i] : 0) << ',';
+          if (a.has_check && i < a.check.model_var_after.size()) o << dev(a.check.model_var_after[i]);
+        } else {
+          o << ",,";
+        }
         o << '\n';
       }
     };
@@ -193,6 +263,13 @@ std::string allanCsv(const std::vector<AxisAnalysis>& axes) {
       wrote_oadev = wrote_oadev || c.name == "oadev";
     }
     if (!wrote_oadev) rows(a.oadev, true);
+    if (a.has_split && a.split.ok) {
+      DeviationCurve d = a.split.denoised_curve, r = a.split.removed_curve;
+      d.name = "oadev_denoised";
+      r.name = "oadev_removed";
+      rows(d, false);
+      rows(r, false);
+    }
   }
   return o.str();
 }
@@ -203,15 +280,45 @@ std::string summaryTable(const std::vector<AxisAnalysis>& axes) {
   const char* short_names[] = {"Q", "N", "B", "K", "R"};
   for (int t = 0; t < kNumTerms; ++t)
     o << std::setw(24) << (std::string(short_names[t]) + " [" + conventionalUnit(t) + "]");
-  o << std::setw(11) << "rms_log10" << "chi2/dof\n";
+  o << std::setw(11) << "rms_log10" << std::setw(10) << "chi2/dof" << "method\n";
   for (const auto& a : axes) {
     o << std::setw(6) << a.axis;
-    for (int t = 0; t < kNumTerms; ++t) o << std::setw(24) << fmtCoef(a.fit.terms[static_cast<size_t>(t)], conventionalFactor(t));
-    char buf[64];
-    std::snprintf(buf, sizeof buf, "%-11.4f%.3g", a.fit.rms_log10, a.fit.chi2_dof);
+    for (int t = 0; t < kNumTerms; ++t) o << std::setw(24) << fmtCoef(a.coefficients[static_cast<size_t>(t)], conventionalFactor(t));
+    char buf[96];
+    std::snprintf(buf, sizeof buf, "%-11.4f%-10.3g%s", a.final_error.rms_log10, a.final_error.chi2_dof, a.method.c_str());
     o << buf << "\n";
   }
   o << "(value +- 1 sigma; 0 (<b): not supported by the data, b = 1-sigma upper bound)\n";
+  // Model check: what the residual showed and what was added.
+  bool any = false;
+  for (const auto& a : axes) any = any || a.has_check;
+  if (any) {
+    o << "model check (residual -> effect -> refit):\n";
+    for (const auto& a : axes) {
+      if (!a.has_check) continue;
+      const auto& c = a.check;
+      char buf[160];
+      std::snprintf(buf, sizeof buf, "  %-4s before rms_log10 %.4f chi2/dof %.3g -> after %.4f %.3g; ", a.axis.c_str(),
+                    c.before.rms_log10, c.before.chi2_dof, c.after.rms_log10, c.after.chi2_dof);
+      o << buf;
+      if (c.effects.empty()) o << "no effect added (" << c.residual_before.summary << ")\n";
+      else {
+        o << "added:";
+        for (const auto& e : c.effects) {
+          o << " " << e.type;
+          bool first = true;
+          for (const auto& kv : e.parameters) {
+            std::snprintf(buf, sizeof buf, "%s%s=%.4g", first ? " (" : ", ", kv.first.c_str(), kv.second.value);
+            o << buf;
+            first = false;
+          }
+          if (!first) o << ")";
+        }
+        o << "\n";
+        for (const auto& e : c.effects) o << "       " << e.type << ": " << e.evidence << "\n";
+      }
+    }
+  }
   return o.str();
 }
 

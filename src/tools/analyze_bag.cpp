@@ -50,6 +50,10 @@ Input
 Analysis
   --tau-grid G           octave | decade | all | log | log:K  (default log:10)
   --deviations LIST      comma list of oadev,adev,mdev,hdev,ohdev,tdev,totdev written to allan.csv (default oadev)
+  --method M             auto | joint_fit | wavelet_split: whose coefficients are the answer (default auto:
+                         wavelet_split when quantization dominates the shortest tau, else joint_fit)
+  --no-wavelet-split     skip the wavelet split (sym8 denoising, Allan variance of both parts)
+  --no-model-check       skip the model check (residual -> missing effect -> refit)
   --confidence C         two-sided confidence of the intervals (default 0.683)
   --gap-factor F         an interval longer than F nominal periods is a gap (default 1.5)
 
@@ -65,9 +69,9 @@ Exit codes: 0 ok, 1 bad command line, 2 unusable input, 3 data not analysable, 4
 struct Args {
   std::vector<std::string> bags;
   std::string topic, temperature_topic, csv, output = "allan_out", units, input = "rate", format = "yaml";
-  std::string tau_grid = "log:10", deviations = "oadev";
+  std::string tau_grid = "log:10", deviations = "oadev", method = "auto";
   double rate = 0, confidence = 0.683, gap_factor = 1.5, start = 0, duration = 0;
-  bool bag_time = false, quiet = false;
+  bool bag_time = false, quiet = false, wavelet_split = true, model_check = true;
 };
 
 struct UsageError : std::runtime_error {
@@ -104,6 +108,9 @@ Args parseArgs(int argc, char** argv) {
     else if (s == "--input") a.input = value();
     else if (s == "--tau-grid") a.tau_grid = value();
     else if (s == "--deviations") a.deviations = value();
+    else if (s == "--method") a.method = value();
+    else if (s == "--no-wavelet-split") a.wavelet_split = false;
+    else if (s == "--no-model-check") a.model_check = false;
     else if (s == "--confidence") a.confidence = parseDouble(s, value());
     else if (s == "--gap-factor") a.gap_factor = parseDouble(s, value());
     else if (s == "--start") a.start = parseDouble(s, value());
@@ -194,9 +201,18 @@ int run(const Args& args) {
   for (const auto& d : opt.deviations)
     if (!isDeviationName(d)) throw UsageError("--deviations: unknown deviation '" + d + "'");
   opt.input = args.input == "angle" ? InputKind::Angle : InputKind::Rate;
+  if (args.method != "auto" && args.method != "joint_fit" && args.method != "wavelet_split")
+    throw UsageError("--method must be auto, joint_fit or wavelet_split");
+  if (args.method == "wavelet_split" && !args.wavelet_split)
+    throw UsageError("--method wavelet_split contradicts --no-wavelet-split");
+  opt.method = args.method;
+  opt.wavelet_split = args.wavelet_split;
+  opt.model_check = args.model_check;
 
   ReportMeta meta;
   meta.tau_grid = tauGridName(opt.deviation.grid);
+  meta.method = args.method;
+  std::vector<double> temp_t, temp_v;  // temperature series (bags with a sensor_msgs/Temperature topic)
   meta.confidence = args.confidence;
   meta.input = args.input;
   SanitizeOptions so;
@@ -244,6 +260,8 @@ int run(const Args& args) {
     names = {"x", "y", "z"};
     t = std::move(s.t);
     values = {std::move(s.gyro[0]), std::move(s.gyro[1]), std::move(s.gyro[2])};
+    temp_t = std::move(s.temperature_t);
+    temp_v = std::move(s.temperature);
     if (args.rate > 0) so.nominal_rate_hz = args.rate;
   }
   if (values.size() > 3) {
@@ -260,11 +278,13 @@ int run(const Args& args) {
     throw std::invalid_argument("too few valid samples (" + std::to_string(ss.report.kept) + " of " +
                                 std::to_string(ss.report.input) + ")");
   const double tau0 = ss.report.nominal_period_s;
+  const std::vector<std::vector<double>> temperature_segments = ss.interpolateSegments(temp_t, temp_v);
   // A gyro at rest reads Earth rate plus bias: hundreds of deg/s means wrong units or a moving sensor.
   std::vector<AxisAnalysis> results;
   for (size_t a = 0; a < values.size(); ++a) {
     if (opt.input == InputKind::Rate) valueWarnings(names[a], ss.v[a], &meta.warnings);
-    results.push_back(analyzeAxis(names[a], ss.segmentValues(static_cast<int>(a)), tau0, opt));
+    results.push_back(analyzeAxis(names[a], ss.segmentValues(static_cast<int>(a)), tau0, opt,
+                                  temperature_segments.empty() ? nullptr : &temperature_segments));
     if (opt.input == InputKind::Rate && std::fabs(results.back().mean) > 1.0)
       meta.warnings.push_back("axis " + names[a] + ": mean rate " + std::to_string(results.back().mean) +
                               " rad/s is not a gyro at rest (wrong units or a moving sensor?)");

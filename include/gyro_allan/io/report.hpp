@@ -18,6 +18,7 @@ struct ReportMeta {
   std::string input = "rate";        ///< rate | angle
   std::string input_units = "rad/s";
   std::string tau_grid;
+  std::string method = "auto";      ///< requested method (each axis names the one it used)
   double confidence = 0.683;
   StampReport stamps;
   std::vector<std::string> warnings;
