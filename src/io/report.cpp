@@ -1,6 +1,8 @@
 // report.yaml / report.json, allan.csv and the printed summary, written atomically.
 #include "gyro_allan/io/report.hpp"
 
+#include "gyro_allan/kalibr.hpp"
+
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -318,6 +320,50 @@ std::string summaryTable(const std::vector<AxisAnalysis>& axes) {
         for (const auto& e : c.effects) o << "       " << e.type << ": " << e.evidence << "\n";
       }
     }
+  }
+  return o.str();
+}
+
+YAML::Node accelerometerNode(const std::vector<AxisAnalysis>& axes, const std::vector<double>& means) {
+  YAML::Node r;
+  r["note"] = "same IEEE 952 model on linear_acceleration (mean, i.e. gravity, removed); joint fit only: no wavelet "
+              "split or model check";
+  for (size_t i = 0; i < axes.size(); ++i) {
+    const AxisAnalysis& a = axes[i];
+    std::string key = a.axis;
+    if (key.rfind("accel_", 0) == 0) key = key.substr(6);
+    YAML::Node n;
+    n["samples"] = a.samples;
+    n["mean"] = num(i < means.size() ? means[i] : a.mean);
+    n["mean_unit"] = "m/s^2";
+    n["method"] = a.method;
+    YAML::Node c;
+    for (int t = 0; t < kNumTerms; ++t) {
+      static const char* keys[] = {"velocity_quantization", "velocity_random_walk", "bias_instability",
+                                   "acceleration_random_walk", "acceleration_ramp"};
+      c[keys[t]] = coefficientNode(a.coefficients[static_cast<size_t>(t)], accelTermUnit(t));
+    }
+    n["coefficients"] = c;
+    n["fit"] = errorNode(a.final_error.rms_log10, a.final_error.chi2_dof);
+    r["axes"][key] = n;
+  }
+  return r;
+}
+
+std::string accelSummaryTable(const std::vector<AxisAnalysis>& axes) {
+  std::ostringstream o;
+  o << std::left << std::setw(8) << "accel";
+  const char* short_names[] = {"Q", "VRW", "B", "AccRW", "R"};
+  for (int t = 0; t < kNumTerms; ++t)
+    o << std::setw(24) << (std::string(short_names[t]) + " [" + accelConventionalUnit(t) + "]");
+  o << std::setw(11) << "rms_log10" << "\n";
+  for (const auto& a : axes) {
+    o << std::setw(8) << a.axis;
+    for (int t = 0; t < kNumTerms; ++t)
+      o << std::setw(24) << fmtCoef(a.coefficients[static_cast<size_t>(t)], accelConventionalFactor(t));
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%-11.4f", a.final_error.rms_log10);
+    o << buf << "\n";
   }
   return o.str();
 }

@@ -1,5 +1,8 @@
 // analyze_bag: offline gyro noise analysis of rosbags (sensor_msgs/Imu) or CSV series -> report.yaml, allan.csv, summary.
+#include <dirent.h>
 #include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
@@ -16,6 +19,7 @@
 #include "gyro_allan/csv_input.hpp"
 #include "gyro_allan/io/bag_input.hpp"
 #include "gyro_allan/io/report.hpp"
+#include "gyro_allan/kalibr.hpp"
 #include "gyro_allan/timing.hpp"
 
 using namespace gyro_allan;
@@ -28,9 +32,11 @@ constexpr int kExitUsage = 1;     // bad command line
 constexpr int kExitInput = 2;     // input unusable: missing file, wrong type, empty, corrupt
 constexpr int kExitAnalysis = 3;  // data present but not analysable (too short...)
 constexpr int kExitOutput = 4;    // cannot write the output
+constexpr int kExitBatchFailed = 5;  // --batch: at least one bag failed (its row in summary.csv says why)
 
 const char* kUsage = R"(usage: analyze_bag BAG [BAG...] [options]
        analyze_bag --csv FILE --rate HZ [options]
+       analyze_bag --batch DIR [options]
 
 Gyro noise analysis: Allan deviation (overlapping, and other deviations on request) with confidence
 intervals, and the IEEE 952/647 noise-model fit (Q, N, B, K, R) per axis.
@@ -46,6 +52,8 @@ Input
   --rate HZ              sample rate of the CSV (required with --csv unless it has a time column)
   --units U              CSV units: rad/s (default) or deg/s; for --input angle: rad or deg
   --input K              rate (default) or angle (accumulated angle samples, e.g. RLG/FOG pulse output)
+  --batch DIR            analyse every DIR/*.bag on its own into OUTPUT/<bag name>/ and write OUTPUT/summary.csv
+                         (one row per bag, sensor and axis; a failing bag is one row with its error)
 
 Analysis
   --tau-grid G           octave | decade | all | log | log:K  (default log:10)
@@ -56,20 +64,31 @@ Analysis
   --no-model-check       skip the model check (residual -> missing effect -> refit)
   --confidence C         two-sided confidence of the intervals (default 0.683)
   --gap-factor F         an interval longer than F nominal periods is a gap (default 1.5)
+  --no-accel             skip the accelerometer (bags: linear_acceleration gets the same joint fit, mean removed)
 
 Output
   --output DIR           output folder (default ./allan_out); created if missing
   --format yaml|json     report format: DIR/report.yaml or DIR/report.json (default yaml)
+                         Always written: DIR/allan.csv (gyro axes x,y,z; accelerometer axes accel_x..z) and
+                         DIR/imu.yaml (Kalibr IMU noise parameters: N and K of gyro and accelerometer, update_rate,
+                         rostopic; a term the data does not support is written as its 1-sigma upper bound)
+  --kalibr-axis R        worst | mean: Kalibr's one value per term is the largest axis or the quadratic mean over
+                         axes (default worst)
+  --no-plot              do not run scripts/plot_allan.py (DIR/allan.png and DIR/allan.svg; needs /usr/bin/python3
+                         with matplotlib, a missing one is a one-line warning)
   --quiet                print nothing but errors
   -h, --help             this text
 
-Exit codes: 0 ok, 1 bad command line, 2 unusable input, 3 data not analysable, 4 cannot write output.
+Exit codes: 0 ok, 1 bad command line, 2 unusable input, 3 data not analysable, 4 cannot write output,
+5 --batch: some bags failed.
 )";
 
 struct Args {
   std::vector<std::string> bags;
   std::string topic, temperature_topic, csv, output = "allan_out", units, input = "rate", format = "yaml";
   std::string tau_grid = "log:10", deviations = "oadev", method = "auto";
+  std::string batch, kalibr_axis = "worst";
+  bool accel = true, plot = true;
   double rate = 0, confidence = 0.683, gap_factor = 1.5, start = 0, duration = 0;
   bool bag_time = false, quiet = false, wavelet_split = true, model_check = true;
 };
@@ -117,12 +136,19 @@ Args parseArgs(int argc, char** argv) {
     else if (s == "--duration") a.duration = parseDouble(s, value());
     else if (s == "--format") a.format = value();
     else if (s == "--bag-time") a.bag_time = true;
+    else if (s == "--batch") a.batch = value();
+    else if (s == "--kalibr-axis") a.kalibr_axis = value();
+    else if (s == "--no-accel") a.accel = false;
+    else if (s == "--no-plot") a.plot = false;
     else if (s == "--quiet" || s == "-q") a.quiet = true;
     else if (!s.empty() && s[0] == '-') throw UsageError("unknown option " + s + " (see --help)");
     else a.bags.push_back(s);
   }
-  if (a.csv.empty() && a.bags.empty()) throw UsageError("no input: give a bag or --csv FILE (see --help)");
+  if (a.csv.empty() && a.bags.empty() && a.batch.empty())
+    throw UsageError("no input: give a bag, --csv FILE or --batch DIR (see --help)");
   if (!a.csv.empty() && !a.bags.empty()) throw UsageError("give bags or --csv, not both");
+  if (!a.batch.empty() && (!a.csv.empty() || !a.bags.empty())) throw UsageError("--batch takes no other input");
+  if (a.kalibr_axis != "worst" && a.kalibr_axis != "mean") throw UsageError("--kalibr-axis must be worst or mean");
   if (a.input != "rate" && a.input != "angle") throw UsageError("--input must be rate or angle");
   if (a.format != "yaml" && a.format != "json") throw UsageError("--format must be yaml or json");
   if (a.rate < 0) throw UsageError("--rate must be > 0");
@@ -191,7 +217,64 @@ void makeDir(const std::string& dir) {
   }
 }
 
-int run(const Args& args) {
+/// Where plot_allan.py is: $GYRO_ALLAN_PLOT_SCRIPT, next to this executable (catkin install puts scripts in the
+/// package's lib folder), then the source tree this binary was built from. Empty if none exists.
+std::string plotScript() {
+  std::vector<std::string> candidates;
+  if (const char* env = std::getenv("GYRO_ALLAN_PLOT_SCRIPT")) candidates.push_back(env);
+  char exe[4096];
+  const ssize_t n = readlink("/proc/self/exe", exe, sizeof exe - 1);
+  if (n > 0) {
+    std::string dir(exe, static_cast<size_t>(n));
+    dir = dir.substr(0, dir.find_last_of('/'));
+    candidates.push_back(dir + "/plot_allan.py");
+  }
+#ifdef GYRO_ALLAN_SOURCE_DIR
+  candidates.push_back(std::string(GYRO_ALLAN_SOURCE_DIR) + "/scripts/plot_allan.py");
+#endif
+  for (const auto& c : candidates)
+    if (access(c.c_str(), R_OK) == 0) return c;
+  return "";
+}
+
+/// Runs plot_allan.py on the output folder; any failure is a one-line warning (the plot is optional).
+void runPlot(const std::string& dir, bool quiet) {
+  const std::string script = plotScript();
+  auto warn = [&](const std::string& why) {
+    if (!quiet) std::cerr << "analyze_bag: warning: no plot: " << why << "\n";
+  };
+  if (script.empty()) return warn("plot_allan.py not found (set GYRO_ALLAN_PLOT_SCRIPT)");
+  const char* py = access("/usr/bin/python3", X_OK) == 0 ? "/usr/bin/python3" : "python3";
+  const std::string cmd = std::string(py) + " '" + script + "' '" + dir + "' 2>&1";
+  FILE* f = popen(cmd.c_str(), "r");
+  if (!f) return warn("cannot start python3");
+  std::string out, last;
+  char buf[512];
+  while (std::fgets(buf, sizeof buf, f)) {
+    std::string l(buf);
+    while (!l.empty() && (l.back() == '\n' || l.back() == '\r')) l.pop_back();
+    if (!l.empty()) last = l;
+  }
+  const int status = pclose(f);
+  if (status == -1 || !WIFEXITED(status) || WEXITSTATUS(status) != 0)
+    warn(last.empty() ? "plot_allan.py failed" : last);
+}
+
+/// Mean of all samples over segments, then removed (accelerometer: gravity; Allan variance ignores constants, the
+/// removal only keeps the accumulated phase small).
+double removeMean(std::vector<std::vector<double>>* segments) {
+  double sum = 0;
+  size_t n = 0;
+  for (const auto& s : *segments)
+    for (double x : s) sum += x, ++n;
+  const double mean = n ? sum / static_cast<double>(n) : 0;
+  for (auto& s : *segments)
+    for (double& x : s) x -= mean;
+  return mean;
+}
+
+int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
+        std::vector<AxisAnalysis>* accel_out = nullptr) {
   AnalysisOptions opt;
   std::string err;
   if (!parseTauGrid(args.tau_grid, &opt.deviation.grid, &err)) throw UsageError("--tau-grid: " + err);
@@ -213,6 +296,7 @@ int run(const Args& args) {
   meta.tau_grid = tauGridName(opt.deviation.grid);
   meta.method = args.method;
   std::vector<double> temp_t, temp_v;  // temperature series (bags with a sensor_msgs/Temperature topic)
+  std::array<std::vector<double>, 3> accel;  // linear_acceleration (bags only), m/s^2
   meta.confidence = args.confidence;
   meta.input = args.input;
   SanitizeOptions so;
@@ -261,6 +345,7 @@ int run(const Args& args) {
     t = std::move(s.t);
     values = {std::move(s.gyro[0]), std::move(s.gyro[1]), std::move(s.gyro[2])};
     temp_t = std::move(s.temperature_t);
+    if (args.accel) accel = std::move(s.accel);
     temp_v = std::move(s.temperature);
     if (args.rate > 0) so.nominal_rate_hz = args.rate;
   }
@@ -289,13 +374,55 @@ int run(const Args& args) {
       meta.warnings.push_back("axis " + names[a] + ": mean rate " + std::to_string(results.back().mean) +
                               " rad/s is not a gyro at rest (wrong units or a moving sensor?)");
   }
+  // Accelerometer: the same engine, joint fit only (the wavelet split and model check are tuned for gyros and
+  // would double the run time); the mean (gravity) is removed first.
+  std::vector<AxisAnalysis> accel_results;
+  std::vector<double> accel_means;
+  if (args.accel && !accel[0].empty() && accel[0].size() == t.size()) {
+    bool published = false;  // an IMU without accelerometer publishes zeros
+    for (const auto& v : accel)
+      for (double x : v) published = published || (x != 0 && std::isfinite(x));
+    if (!published) {
+      meta.warnings.push_back("linear_acceleration is all zero: accelerometer not analysed");
+    } else {
+      AnalysisOptions ao = opt;
+      ao.wavelet_split = false;
+      ao.model_check = false;
+      ao.method = "joint_fit";
+      std::vector<const std::vector<double>*> ap{&accel[0], &accel[1], &accel[2]};
+      try {
+        SanitizedSeries sa = sanitize(t, ap, so);
+        for (int a = 0; a < 3; ++a) {
+          std::vector<std::vector<double>> segs = sa.segmentValues(a);
+          accel_means.push_back(removeMean(&segs));
+          accel_results.push_back(analyzeAxis("accel_" + names[static_cast<size_t>(a)], segs, tau0, ao));
+        }
+      } catch (const std::exception& e) {
+        accel_results.clear();
+        meta.warnings.push_back(std::string("accelerometer not analysed: ") + e.what());
+      }
+    }
+  }
   for (const auto& w : meta.warnings)
     if (!args.quiet) std::cerr << "analyze_bag: warning: " << w << "\n";
 
   try {
     makeDir(args.output);
-    const YAML::Node report = buildReport(meta, results);
-    writeFileAtomic(args.output + "/allan.csv", allanCsv(results));
+    YAML::Node report = buildReport(meta, results);
+    if (!accel_results.empty()) report["accelerometer"] = accelerometerNode(accel_results, accel_means);
+    std::string csv = allanCsv(results);
+    if (!accel_results.empty()) {
+      const std::string acsv = allanCsv(accel_results);
+      csv += acsv.substr(acsv.find('\n') + 1);  // same columns: drop the second header
+    }
+    writeFileAtomic(args.output + "/allan.csv", csv);
+    std::vector<std::string> gyro_axes, accel_axes;
+    std::vector<std::array<Coefficient, kNumTerms>> gyro_c, accel_c;
+    for (const auto& a : results) gyro_axes.push_back(a.axis), gyro_c.push_back(a.coefficients);
+    for (const auto& a : accel_results) accel_axes.push_back(a.axis), accel_c.push_back(a.coefficients);
+    const KalibrParams kp = kalibrParams(gyro_axes, gyro_c, accel_axes, accel_c, 1.0 / tau0, meta.topic,
+                                         parseKalibrAxisRule(args.kalibr_axis));
+    writeFileAtomic(args.output + "/imu.yaml", kalibrYaml(kp));
     if (args.format == "json") writeFileAtomic(args.output + "/report.json", toJson(report));
     else writeFileAtomic(args.output + "/report.yaml", toYaml(report));
   } catch (const std::exception& e) {
@@ -307,9 +434,98 @@ int run(const Args& args) {
                 meta.topic.empty() ? "" : (" " + meta.topic).c_str(), static_cast<long long>(ss.report.kept),
                 1.0 / tau0, static_cast<double>(ss.report.kept) * tau0, meta.tau_grid.c_str());
     std::printf("%s", summaryTable(results).c_str());
-    std::printf("wrote %s/report.%s and %s/allan.csv\n", args.output.c_str(), args.format.c_str(), args.output.c_str());
+    if (!accel_results.empty()) std::printf("%s", accelSummaryTable(accel_results).c_str());
+    std::printf("wrote %s/report.%s, %s/allan.csv and %s/imu.yaml (Kalibr)\n", args.output.c_str(),
+                args.format.c_str(), args.output.c_str(), args.output.c_str());
   }
+  if (args.plot) runPlot(args.output, args.quiet);
+  if (gyro_out) *gyro_out = results;
+  if (accel_out) *accel_out = accel_results;
   return kExitOk;
+}
+
+/// One CSV field, quoted when it holds a comma, quote or newline.
+std::string csvField(const std::string& v) {
+  if (v.find_first_of(",\"\n") == std::string::npos) return v;
+  std::string q = "\"";
+  for (char c : v) q += c == '"' ? std::string("\"\"") : std::string(1, c == '\n' ? ' ' : c);
+  return q + "\"";
+}
+
+/// --batch DIR: every DIR/*.bag (sorted by name) analysed on its own into OUTPUT/<bag name>/; OUTPUT/summary.csv has
+/// one row per bag, sensor and axis (coefficients in SI; unsupported terms 0, listed in `unsupported`) or one row with
+/// the error of a failing bag.
+int runBatch(const Args& args) {
+  std::vector<std::string> bags;
+  DIR* d = opendir(args.batch.c_str());
+  if (!d) throw InputError("--batch: cannot open folder '" + args.batch + "'");
+  while (dirent* e = readdir(d)) {
+    const std::string n = e->d_name;
+    if (n.size() > 4 && n.compare(n.size() - 4, 4, ".bag") == 0) bags.push_back(n);
+  }
+  closedir(d);
+  std::sort(bags.begin(), bags.end());
+  if (bags.empty()) throw InputError("--batch: no *.bag in '" + args.batch + "'");
+  try {
+    makeDir(args.output);
+  } catch (const std::exception& e) {
+    std::cerr << "analyze_bag: error: " << e.what() << "\n";
+    return kExitOutput;
+  }
+  std::ostringstream csv;
+  csv << "bag,sensor,axis,status,quantization,angle_random_walk,bias_instability,rate_random_walk,rate_ramp,"
+         "unsupported,rms_log10,method,error\n";
+  int failed = 0;
+  for (const auto& name : bags) {
+    Args sub = args;
+    sub.batch.clear();
+    sub.bags = {args.batch + "/" + name};
+    sub.output = args.output + "/" + name.substr(0, name.size() - 4);
+    std::vector<AxisAnalysis> gyro, accel;
+    std::string error;
+    int code = kExitOk;
+    try {
+      code = run(sub, &gyro, &accel);
+      if (code != kExitOk) error = "cannot write output to " + sub.output;
+    } catch (const std::exception& e) {
+      error = e.what();
+      code = kExitInput;
+    }
+    if (!args.quiet) std::fprintf(stderr, "analyze_bag: batch: %s: %s\n", name.c_str(), error.empty() ? "ok" : error.c_str());
+    if (!error.empty()) {
+      ++failed;
+      csv << csvField(name) << ",,,failed,,,,,,,,," << csvField(error) << "\n";
+      continue;
+    }
+    auto rows = [&](const std::vector<AxisAnalysis>& axes, const char* sensor) {
+      for (const auto& a : axes) {
+        std::string axis = a.axis;
+        if (axis.rfind("accel_", 0) == 0) axis = axis.substr(6);
+        csv << csvField(name) << ',' << sensor << ',' << axis << ",ok";
+        std::string unsupported;
+        char buf[32];
+        for (int t = 0; t < kNumTerms; ++t) {
+          const Coefficient& c = a.coefficients[static_cast<size_t>(t)];
+          std::snprintf(buf, sizeof buf, ",%.6g", c.supported ? c.value : 0.0);
+          csv << buf;
+          if (!c.supported) unsupported += std::string(unsupported.empty() ? "" : " ") + noiseTermKey(t);
+        }
+        std::snprintf(buf, sizeof buf, ",%.4f", a.final_error.rms_log10);
+        csv << ',' << unsupported << buf << ',' << a.method << ",\n";
+      }
+    };
+    rows(gyro, "gyro");
+    rows(accel, "accel");
+  }
+  try {
+    writeFileAtomic(args.output + "/summary.csv", csv.str());
+  } catch (const std::exception& e) {
+    std::cerr << "analyze_bag: error: " << e.what() << "\n";
+    return kExitOutput;
+  }
+  if (!args.quiet)
+    std::printf("batch: %zu bags, %d failed; wrote %s/summary.csv\n", bags.size(), failed, args.output.c_str());
+  return failed ? kExitBatchFailed : kExitOk;
 }
 
 }  // namespace
@@ -319,7 +535,8 @@ int main(int argc, char** argv) {
   // gives our one-line error only.
   console_bridge::setLogLevel(console_bridge::CONSOLE_BRIDGE_LOG_NONE);
   try {
-    return run(parseArgs(argc, argv));
+    const Args args = parseArgs(argc, argv);
+    return args.batch.empty() ? run(args) : runBatch(args);
   } catch (const UsageError& e) {
     std::cerr << "analyze_bag: error: " << e.what() << "\n";
     return kExitUsage;

@@ -33,6 +33,11 @@ std::string toJson(const YAML::Node& node);
 std::string allanCsv(const std::vector<AxisAnalysis>& axes);
 /// Fixed-width summary in conventional units.
 std::string summaryTable(const std::vector<AxisAnalysis>& axes);
+/// report.yaml `accelerometer:` section: per axis (axis names "accel_x" -> "x") the five terms in accelerometer
+/// units; `means` = the removed mean (gravity) per axis [m/s^2].
+YAML::Node accelerometerNode(const std::vector<AxisAnalysis>& axes, const std::vector<double>& means);
+/// Summary lines of the accelerometer in conventional units (m/s/sqrt(h), ug, m/s/h/sqrt(h)).
+std::string accelSummaryTable(const std::vector<AxisAnalysis>& axes);
 /// Writes content to path via path.tmp + rename. Throws std::runtime_error naming the path.
 void writeFileAtomic(const std::string& path, const std::string& content);
 

@@ -1,0 +1,60 @@
+// Kalibr IMU noise parameters (imu.yaml) from per-axis IEEE 952 coefficients: continuous-time noise densities.
+#pragma once
+
+#include <array>
+#include <string>
+#include <vector>
+
+#include "gyro_allan/noise_model.hpp"
+
+namespace gyro_allan {
+
+/// Accelerometer units of the five IEEE terms (same model, m/s^2 instead of rad/s): SI unit (m/s, m/s/sqrt(s),
+/// m/s^2, m/s^2/sqrt(s), m/s^3) and conventional unit with its factor from SI (mm/s, m/s/sqrt(h), ug,
+/// m/s/h/sqrt(h), m/s/h^2). ug uses standard gravity 9.80665 m/s^2.
+const char* accelTermUnit(int term);
+const char* accelConventionalUnit(int term);
+double accelConventionalFactor(int term);
+
+/// How the per-axis coefficients become Kalibr's one isotropic value: the largest axis ("worst") or the quadratic
+/// mean over axes ("mean": sqrt of the mean of the squares, i.e. the mean noise power).
+enum class KalibrAxisRule { Worst, Mean };
+/// "worst" or "mean"; throws std::invalid_argument otherwise.
+KalibrAxisRule parseKalibrAxisRule(const std::string& s);
+
+/// One Kalibr number: the value (SI), whether it is only an upper bound (the term is not supported by the data on
+/// the axis that decided it, so the 1-sigma bound is written) and which axis decided it ("rms" for the mean rule).
+struct KalibrValue {
+  double value = 0;
+  bool bound = false;
+  std::string axis;
+  bool present = false;  ///< false: no data for this sensor (e.g. CSV input has no accelerometer)
+};
+
+struct KalibrParams {
+  KalibrValue gyroscope_noise_density;      ///< = N, angle random walk [rad/s/sqrt(Hz)] = [rad/sqrt(s)]
+  KalibrValue gyroscope_random_walk;        ///< = K, rate random walk [rad/s^2/sqrt(Hz)] = [rad/s/sqrt(s)]
+  KalibrValue accelerometer_noise_density;  ///< = VRW [m/s^2/sqrt(Hz)] = [m/s/sqrt(s)]
+  KalibrValue accelerometer_random_walk;    ///< = acceleration random walk [m/s^3/sqrt(Hz)] = [m/s^2/sqrt(s)]
+  double update_rate_hz = 0;
+  std::string rostopic;
+  KalibrAxisRule rule = KalibrAxisRule::Worst;
+};
+
+/// Combines one term over axes: each axis contributes its value when supported, else its 1-sigma bound.
+/// Empty input gives present == false. Throws std::invalid_argument if names and coefficients differ in size.
+KalibrValue combineAxes(const std::vector<std::string>& axes, const std::vector<Coefficient>& coefficients,
+                        KalibrAxisRule rule);
+
+/// Kalibr parameters from gyro (and optionally accelerometer) coefficients per axis (IEEE term order).
+/// Throws std::invalid_argument when the gyro has no axis or the rate is not > 0.
+KalibrParams kalibrParams(const std::vector<std::string>& gyro_axes,
+                          const std::vector<std::array<Coefficient, kNumTerms>>& gyro,
+                          const std::vector<std::string>& accel_axes,
+                          const std::vector<std::array<Coefficient, kNumTerms>>& accel, double update_rate_hz,
+                          const std::string& rostopic, KalibrAxisRule rule);
+
+/// imu.yaml text in Kalibr's format, with comments naming the source of each number and any bound.
+std::string kalibrYaml(const KalibrParams& p);
+
+}  // namespace gyro_allan
