@@ -1,0 +1,191 @@
+// What users see (issue 7): Kalibr imu.yaml against the report, accelerometer section, batch summary.csv, plot PNG
+// size, and the gap between two stitched bags, by running the tools end to end.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <yaml-cpp/yaml.h>
+
+namespace {
+
+const std::string kTools = GYRO_ALLAN_TOOL_DIR;
+const std::string kSource = GYRO_ALLAN_SOURCE_DIR;
+const std::string kOut = std::string(GYRO_ALLAN_TEST_OUT) + "/cli_outputs";
+
+struct ToolRun {
+  int code;
+  std::string out, err;
+};
+
+std::string slurp(const std::string& p) {
+  std::ifstream f(p, std::ios::binary);
+  std::stringstream ss;
+  ss << f.rdbuf();
+  return ss.str();
+}
+
+ToolRun run(const std::string& args) {
+  const std::string o = kOut + "/stdout.txt", e = kOut + "/stderr.txt";
+  const int status = std::system((args + " >" + o + " 2>" + e).c_str());
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(o), slurp(e)};
+}
+
+/// Width and height from a PNG's IHDR chunk (bytes 16..23, big endian); {0, 0} if not a PNG.
+std::pair<uint32_t, uint32_t> pngSize(const std::string& path) {
+  const std::string b = slurp(path);
+  if (b.size() < 24 || b.compare(0, 8, "\x89PNG\r\n\x1a\n") != 0 || b.compare(12, 4, "IHDR") != 0) return {0, 0};
+  auto be32 = [&](size_t i) {
+    return (uint32_t(uint8_t(b[i])) << 24) | (uint32_t(uint8_t(b[i + 1])) << 16) | (uint32_t(uint8_t(b[i + 2])) << 8) |
+           uint32_t(uint8_t(b[i + 3]));
+  };
+  return {be32(16), be32(20)};
+}
+
+/// Kalibr's worst-axis rule: the largest per-axis value, an unsupported term counting with its 1-sigma bound.
+double worst(const YAML::Node& axes, const std::string& term) {
+  double w = 0;
+  for (auto it = axes.begin(); it != axes.end(); ++it) {
+    const YAML::Node c = it->second["coefficients"][term];
+    w = std::max(w, c["supported"].as<bool>() ? c["value"].as<double>() : c["sigma"].as<double>());
+  }
+  return w;
+}
+
+std::vector<std::string> lines(const std::string& s) {
+  std::vector<std::string> out;
+  std::stringstream ss(s);
+  std::string l;
+  while (std::getline(ss, l))
+    if (!l.empty()) out.push_back(l);
+  return out;
+}
+
+class Outputs : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    ASSERT_EQ(std::system(("rm -rf " + kOut + " && mkdir -p " + kOut + "/batch_in").c_str()), 0);
+    // Two 10 min, 200 Hz bags: gyro N = 1e-3 rad/sqrt(s), K = 1e-5; accelerometer VRW = 2e-3 m/s/sqrt(s).
+    for (int seed : {3, 4}) {
+      const ToolRun r = run(kTools + "/simulate --output " + kOut + "/batch_in/sim" + std::to_string(seed) +
+                            ".bag --rate 200 --duration 600 --arw 1e-3 --rrw 1e-5 --accel-noise 2e-3 --seed " +
+                            std::to_string(seed) + " --compression none");
+      ASSERT_EQ(r.code, 0) << r.err;
+    }
+    std::ofstream(kOut + "/batch_in/broken.bag") << "not a bag";
+  }
+};
+
+TEST_F(Outputs, KalibrValuesAreTheReportsNAndKInSi) {
+  const std::string out = kOut + "/kalibr";
+  const ToolRun r = run(kTools + "/analyze_bag " + kOut + "/batch_in/sim3.bag --no-plot --output " + out);
+  ASSERT_EQ(r.code, 0) << r.err;
+  const YAML::Node rep = YAML::LoadFile(out + "/report.yaml"), imu = YAML::LoadFile(out + "/imu.yaml");
+  EXPECT_EQ(imu["rostopic"].as<std::string>(), "/imu");
+  EXPECT_NEAR(imu["update_rate"].as<double>(), 200.0, 1e-6);
+  // Written with 7 significant digits: equal to the report within 1e-6 relative.
+  const double n = worst(rep["axes"], "angle_random_walk"), k = worst(rep["axes"], "rate_random_walk");
+  EXPECT_NEAR(imu["gyroscope_noise_density"].as<double>() / n, 1.0, 1e-6);
+  EXPECT_NEAR(imu["gyroscope_random_walk"].as<double>() / k, 1.0, 1e-6);
+  // And they are the declared densities (N within 3 %; K within a factor 3: 10 min barely shows it).
+  EXPECT_NEAR(n / 1e-3, 1.0, 0.03);
+  EXPECT_GT(k, 1e-5 / 3);
+  EXPECT_LT(k, 3e-5);
+  // Accelerometer: the report's section and Kalibr's accelerometer_noise_density = VRW, declared 2e-3 (3 %).
+  ASSERT_TRUE(rep["accelerometer"]["axes"]["z"]) << "no accelerometer section";
+  const YAML::Node acc = rep["accelerometer"]["axes"];
+  for (const char* ax : {"x", "y", "z"}) {
+    const YAML::Node c = acc[ax]["coefficients"]["velocity_random_walk"];
+    EXPECT_EQ(c["unit"].as<std::string>(), "m/s/sqrt(s)");
+    EXPECT_NEAR(c["value"].as<double>() / 2e-3, 1.0, 0.03) << ax;
+  }
+  EXPECT_NEAR(acc["z"]["mean"].as<double>(), 9.80665, 0.01);  // gravity was removed and reported
+  const double vrw = worst(acc, "velocity_random_walk"), arw = worst(acc, "acceleration_random_walk");
+  EXPECT_NEAR(imu["accelerometer_noise_density"].as<double>() / vrw, 1.0, 1e-6);
+  EXPECT_NEAR(imu["accelerometer_random_walk"].as<double>() / arw, 1.0, 1e-6);
+  // Printed beside the gyro in conventional units.
+  EXPECT_NE(r.out.find("VRW [m/s/sqrt(h)]"), std::string::npos) << r.out;
+  // --kalibr-axis mean: quadratic mean of the axes.
+  const ToolRun m = run(kTools + "/analyze_bag " + kOut + "/batch_in/sim3.bag --no-plot --quiet --kalibr-axis mean "
+                        "--no-accel --output " + out + "_mean");
+  ASSERT_EQ(m.code, 0) << m.err;
+  const YAML::Node im = YAML::LoadFile(out + "_mean/imu.yaml");
+  double ss = 0;
+  for (const char* ax : {"x", "y", "z"}) {
+    const double v = rep["axes"][ax]["coefficients"]["angle_random_walk"]["value"].as<double>();
+    ss += v * v;
+  }
+  EXPECT_NEAR(im["gyroscope_noise_density"].as<double>() / std::sqrt(ss / 3), 1.0, 1e-6);
+  EXPECT_FALSE(im["accelerometer_noise_density"]);  // --no-accel: not invented
+  EXPECT_FALSE(YAML::LoadFile(out + "_mean/report.yaml")["accelerometer"]);
+  EXPECT_EQ(run(kTools + "/analyze_bag " + kOut + "/batch_in/sim3.bag --kalibr-axis max").code, 1);
+}
+
+TEST_F(Outputs, BatchWritesOneReportPerBagAndOneSummaryRowPerBagSensorAxis) {
+  const std::string out = kOut + "/batch_out";
+  const ToolRun r = run(kTools + "/analyze_bag --batch " + kOut + "/batch_in --no-plot --quiet --output " + out);
+  EXPECT_EQ(r.code, 5) << r.err;  // broken.bag failed
+  const std::vector<std::string> rows = lines(slurp(out + "/summary.csv"));
+  ASSERT_EQ(rows.size(), 1u + 2 * 6 + 1) << slurp(out + "/summary.csv");  // header, 2 bags x (3 gyro + 3 accel), 1 error
+  EXPECT_EQ(rows[0].rfind("bag,sensor,axis,status,", 0), 0u);
+  int gyro_rows = 0, failed = 0;
+  for (const auto& row : rows) {
+    if (row.find(",gyro,") != std::string::npos) ++gyro_rows;
+    if (row.rfind("broken.bag,", 0) == 0) {
+      ++failed;
+      EXPECT_NE(row.find("failed"), std::string::npos);
+    }
+  }
+  EXPECT_EQ(gyro_rows, 6);
+  EXPECT_EQ(failed, 1);
+  for (const char* bag : {"sim3", "sim4"}) {
+    const YAML::Node rep = YAML::LoadFile(out + "/" + bag + "/report.yaml");
+    EXPECT_EQ(rep["input"]["sources"].size(), 1u) << bag;
+    EXPECT_FALSE(slurp(out + "/" + bag + "/imu.yaml").empty());
+  }
+}
+
+TEST_F(Outputs, PlotScriptWritesPngOfTheDocumentedSize) {
+  // Fixture: analyze_bag output of a 5 min, 100 Hz simulated bag (gyro with wavelet split + accelerometer).
+  const std::string dir = kOut + "/plot";
+  ASSERT_EQ(std::system(("mkdir -p " + dir + " && cp " + kSource + "/test/fixtures/plot/allan.csv " + kSource +
+                         "/test/fixtures/plot/report.yaml " + dir + "/").c_str()), 0);
+  const ToolRun r = run("/usr/bin/python3 " + kSource + "/scripts/plot_allan.py " + dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto size = pngSize(dir + "/allan.png");
+  EXPECT_EQ(size.first, 1500u);   // 3 axes x 5 in x 100 dpi
+  EXPECT_EQ(size.second, 800u);   // 2 sensors x 4 in x 100 dpi
+  EXPECT_NE(slurp(dir + "/allan.svg").find("<svg"), std::string::npos);
+  // Gyro only (accelerometer section removed): one row.
+  YAML::Node rep = YAML::LoadFile(dir + "/report.yaml");
+  rep.remove("accelerometer");
+  std::ofstream(dir + "/report.yaml") << rep << "\n";
+  ASSERT_EQ(run("/usr/bin/python3 " + kSource + "/scripts/plot_allan.py " + dir).code, 0);
+  EXPECT_EQ(pngSize(dir + "/allan.png").second, 400u);
+}
+
+TEST_F(Outputs, GapBetweenStitchedBagsIsInTheReport) {
+  // Two 200 s bags, the second starting 300 s after the first: 100 s missing.
+  for (int i = 0; i < 2; ++i) {
+    const ToolRun s = run(kTools + "/simulate --output " + kOut + "/gap" + std::to_string(i) + ".bag --rate 100 "
+                          "--duration 200 --arw 1e-3 --compression none --seed " + std::to_string(10 + i) +
+                          " --start-time " + std::to_string(1700000000 + 300 * i));
+    ASSERT_EQ(s.code, 0) << s.err;
+  }
+  const ToolRun r = run(kTools + "/analyze_bag " + kOut + "/gap1.bag " + kOut + "/gap0.bag --no-plot --no-accel "
+                        "--output " + kOut + "/gap_out");
+  ASSERT_EQ(r.code, 0) << r.err;
+  const YAML::Node rep = YAML::LoadFile(kOut + "/gap_out/report.yaml");
+  EXPECT_EQ(rep["stamps"]["gaps"].as<int>(), 1);
+  EXPECT_NEAR(rep["stamps"]["gap_time_s"].as<double>(), 100.0, 0.05);
+  EXPECT_NE(r.err.find("100"), std::string::npos) << r.err;
+}
+
+}  // namespace
