@@ -75,7 +75,8 @@ Output
   --kalibr-axis R        worst | mean: Kalibr's one value per term is the largest axis or the quadratic mean over
                          axes (default worst)
   --no-plot              do not run scripts/plot_allan.py (DIR/allan.png and DIR/allan.svg; needs /usr/bin/python3
-                         with matplotlib, a missing one is a one-line warning)
+                         with matplotlib, a missing one is a one-line warning; environment GYRO_ALLAN_NO_PLOT=1
+                         does the same, e.g. for test suites)
   --quiet                print nothing but errors
   -h, --help             this text
 
@@ -438,7 +439,8 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
     std::printf("wrote %s/report.%s, %s/allan.csv and %s/imu.yaml (Kalibr)\n", args.output.c_str(),
                 args.format.c_str(), args.output.c_str(), args.output.c_str());
   }
-  if (args.plot) runPlot(args.output, args.quiet);
+  const char* no_plot = std::getenv("GYRO_ALLAN_NO_PLOT");
+  if (args.plot && !(no_plot && std::string(no_plot) == "1")) runPlot(args.output, args.quiet);
   if (gyro_out) *gyro_out = results;
   if (accel_out) *accel_out = accel_results;
   return kExitOk;
