@@ -1,0 +1,87 @@
+// rostest node: AnalyzerNodelet started with absurd parameters (negative window, hop > window, negative rate, too few
+// learn samples, gap factor < 1, ...) stays up, uses the documented replacements and accepts every valid sample.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <map>
+#include <mutex>
+#include <random>
+#include <string>
+
+#include <diagnostic_msgs/DiagnosticArray.h>
+#include <ros/ros.h>
+#include <sensor_msgs/Imu.h>
+
+namespace {
+
+class Probe {
+ public:
+  Probe() {
+    pub_ = nh_.advertise<sensor_msgs::Imu>("imu", 10000);
+    sub_ = nh_.subscribe("/diagnostics", 100, &Probe::onDiag, this);
+  }
+  void onDiag(const diagnostic_msgs::DiagnosticArray::ConstPtr& msg) {
+    std::lock_guard<std::mutex> l(mutex_);
+    for (const auto& s : msg->status) {
+      if (s.name.rfind("gyro_allan/badparam_analyzer: ", 0) != 0) continue;
+      for (const auto& kv : s.values) values_[kv.key] = kv.value;
+    }
+  }
+  double value(const std::string& key) {
+    std::lock_guard<std::mutex> l(mutex_);
+    auto it = values_.find(key);
+    return it == values_.end() ? std::nan("") : std::atof(it->second.c_str());
+  }
+  ros::Publisher pub_;
+
+ private:
+  ros::NodeHandle nh_;
+  ros::Subscriber sub_;
+  std::mutex mutex_;
+  std::map<std::string, std::string> values_;
+};
+
+}  // namespace
+
+TEST(NodeletBadParams, ComesUpWithDocumentedReplacements) {
+  Probe p;
+  const ros::WallTime until = ros::WallTime::now() + ros::WallDuration(30.0);
+  while (p.pub_.getNumSubscribers() == 0 && ros::WallTime::now() < until) ros::WallDuration(0.05).sleep();
+  ASSERT_GT(p.pub_.getNumSubscribers(), 0u) << "analyzer nodelet did not come up";
+  ros::WallDuration(0.3).sleep();
+  std::mt19937 rng(1);
+  std::normal_distribution<double> g(0, 0.01);
+  const int n = 1200;  // 6 s at 200 Hz
+  ros::WallRate r(100);
+  for (int i = 0; i < n; i += 2) {
+    for (int j = i; j < i + 2; ++j) {
+      sensor_msgs::Imu m;
+      m.header.stamp = ros::Time(500.0) + ros::Duration(j / 200.0);
+      m.angular_velocity.x = g(rng);
+      m.angular_velocity.y = g(rng);
+      m.angular_velocity.z = g(rng);
+      p.pub_.publish(m);
+    }
+    r.sleep();
+  }
+  const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(10.0);
+  while (ros::WallTime::now() < end && !(p.value("accepted (total)") >= n)) ros::WallDuration(0.1).sleep();
+  EXPECT_EQ(p.value("accepted (total)"), n);
+  EXPECT_EQ(p.value("window (s)"), 3600.0);     // window_s -5 -> default
+  EXPECT_EQ(p.value("hop (s)"), 10.0);          // hop_s > window -> min(10, window)
+  EXPECT_NEAR(p.value("nominal rate (Hz)"), 200.0, 1.0);  // expected_rate_hz < 0 -> learned
+  EXPECT_NEAR(p.value("gap threshold (s)"), 1.5 / 200.0, 1e-4);  // gap_factor 0.5 -> 1.5
+  EXPECT_EQ(p.value("out of order (total)"), 0.0);
+  EXPECT_EQ(p.value("gaps (total)"), 0.0);
+}
+
+int main(int argc, char** argv) {
+  testing::InitGoogleTest(&argc, argv);
+  ros::init(argc, argv, "nodelet_bad_params");
+  ros::AsyncSpinner spinner(1);
+  spinner.start();
+  const int rc = RUN_ALL_TESTS();
+  spinner.stop();
+  ros::shutdown();
+  return rc;
+}
