@@ -11,6 +11,7 @@ PKGS=(
   python3-diagnostic-msgs
   libgtest-dev libbenchmark-dev libeigen3-dev libyaml-cpp-dev
   python3-numpy python3-matplotlib python3-yaml
+  libopencv-imgproc-dev
 )
 missing=()
 for p in "${PKGS[@]}"; do

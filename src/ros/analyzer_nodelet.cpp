@@ -10,6 +10,7 @@
 #include <gyro_allan/NoiseReport.h>
 #include <pluginlib/class_list_macros.hpp>
 
+#include "gyro_allan/io/plot_image.hpp"
 #include "gyro_allan/model_check.hpp"
 #include "gyro_allan/wavelet_split.hpp"
 
@@ -171,6 +172,19 @@ void AnalyzerNodelet::loadParams() {
     p_.recompute_steps = def.recompute_steps;
   }
   pnh.param("publish_curves", p_.publish_curves, def.publish_curves);
+  pnh.param("publish_plot", p_.publish_plot, def.publish_plot);
+  pnh.param("plot_width", p_.plot_width, def.plot_width);
+  pnh.param("plot_height", p_.plot_height, def.plot_height);
+  if (p_.plot_width < 200 || p_.plot_height < 150 || p_.plot_width > 4096 || p_.plot_height > 4096) {
+    NODELET_ERROR("parameters ~plot_width x ~plot_height = %d x %d outside 200x150 .. 4096x4096; using %d x %d",
+                  p_.plot_width, p_.plot_height, def.plot_width, def.plot_height);
+    p_.plot_width = def.plot_width;
+    p_.plot_height = def.plot_height;
+  }
+  if (p_.publish_plot && !plotImageAvailable()) {
+    NODELET_WARN("~publish_plot: this build has no OpenCV (libopencv-imgproc-dev): no ~plot image");
+    p_.publish_plot = false;
+  }
   getD("diag/recent_s", &p_.recent_s, def.recent_s);
   if (!(p_.recent_s > 0)) {
     NODELET_ERROR("parameter ~diag/recent_s = %g must be > 0 s; using %g", p_.recent_s, def.recent_s);
@@ -225,6 +239,7 @@ void AnalyzerNodelet::onInit() {
   loadParams();
 
   noise_pub_ = pnh.advertise<NoiseReport>("noise", 10);
+  if (p_.publish_plot) plot_pub_ = pnh.advertise<sensor_msgs::Image>("plot", 1);
   if (p_.publish_curves)
     for (int a = 0; a < 3; ++a) curve_pub_[a] = pnh.advertise<AllanCurve>(std::string("allan/") + kAxisName[a], 10);
 
@@ -653,6 +668,7 @@ void AnalyzerNodelet::publishResults(const Snapshot& snap) {
     }
   }
   noise_pub_.publish(report);
+  if (p_.publish_plot && plot_pub_.getNumSubscribers() > 0) publishPlot(curves, fits, report.header, snap);
   std::lock_guard<std::mutex> lock(work_mutex_);
   last_fit_.have = true;
   last_fit_.fits = fits;
@@ -661,6 +677,35 @@ void AnalyzerNodelet::publishResults(const Snapshot& snap) {
 }
 
 // ------------------------------------------------------------------------------------------------ diagnostics
+void AnalyzerNodelet::publishPlot(const std::array<DeviationCurve, 3>& curves, const std::array<FitResult, 3>& fits,
+                                  const std_msgs::Header& header, const Snapshot& snap) {
+  std::vector<PlotSeries> series(3);
+  for (int a = 0; a < 3; ++a) {
+    series[a].name = kAxisName[a];
+    series[a].curve = &curves[a];
+    const FitResult& f = fits[a];
+    if (f.ok && f.model_var.size() == curves[a].points.size())
+      for (double mv : f.model_var) series[a].model_adev.push_back(std::sqrt(std::max(0.0, mv)));
+  }
+  char title[160];
+  std::snprintf(title, sizeof title, "gyro_allan oadev  %lld samples  %.0f s window  %.4g Hz",
+                static_cast<long long>(snap.samples), (snap.window_end - snap.window_start).toSec(), snap.rate_hz);
+  try {
+    RgbImage im = renderAllanPlot(series, p_.plot_width, p_.plot_height, title);
+    sensor_msgs::Image msg;
+    msg.header = header;
+    msg.width = static_cast<uint32_t>(im.width);
+    msg.height = static_cast<uint32_t>(im.height);
+    msg.encoding = "rgb8";
+    msg.is_bigendian = 0;
+    msg.step = static_cast<uint32_t>(3 * im.width);
+    msg.data = std::move(im.data);
+    plot_pub_.publish(msg);
+  } catch (const std::exception& e) {
+    NODELET_WARN_THROTTLE(30.0, "gyro_allan analyzer: plot not rendered: %s", e.what());
+  }
+}
+
 void AnalyzerNodelet::diagTimer(const ros::TimerEvent&) {
   if (updater_) updater_->update();
 }

@@ -16,6 +16,7 @@
 #include <geometry_msgs/Vector3Stamped.h>
 #include <nodelet/nodelet.h>
 #include <ros/ros.h>
+#include <sensor_msgs/Image.h>
 #include <sensor_msgs/Imu.h>
 #include <sensor_msgs/Temperature.h>
 
@@ -44,6 +45,8 @@ struct AnalyzerParams {
   double confidence = 0.683;
   int recompute_steps = 2;
   bool publish_curves = true;
+  bool publish_plot = true;        ///< ~plot: sensor_msgs/Image of the live log-log plot (only while subscribed)
+  int plot_width = 800, plot_height = 600;
   bool model_check = false;        ///< run checkModel on the raw samples every hop (fills AxisNoiseFit.effects)
   double raw_max_s = 600;          ///< raw-sample analyses (wavelet split, model check) use at most this much [s]
   double recent_s = 10;            ///< diagnostics: a problem is "recent" for this long (ROS time) [s]
@@ -96,6 +99,8 @@ class AnalyzerNodelet : public nodelet::Nodelet {
   void maybeHop(const ros::Time& stamp);
   void workerLoop();
   void publishResults(const Snapshot& snap);
+  void publishPlot(const std::array<DeviationCurve, 3>& curves, const std::array<FitResult, 3>& fits,
+                   const std_msgs::Header& header, const Snapshot& snap);
   FitResult fitWithNoiseId(DeviationCurve* curve) const;
   void diagTimer(const ros::TimerEvent&);
   void diagStamps(diagnostic_updater::DiagnosticStatusWrapper& stat);
@@ -106,7 +111,7 @@ class AnalyzerNodelet : public nodelet::Nodelet {
 
   AnalyzerParams p_;
   ros::Subscriber imu_sub_, angle_sub_, temp_sub_;
-  ros::Publisher noise_pub_;
+  ros::Publisher noise_pub_, plot_pub_;
   std::array<ros::Publisher, 3> curve_pub_;
   ros::Timer diag_timer_;
   std::unique_ptr<diagnostic_updater::Updater> updater_;
