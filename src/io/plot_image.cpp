@@ -78,7 +78,7 @@ RgbImage renderAllanPlot(const std::vector<PlotSeries>& series, int width, int h
     cv::putText(m, buf, cv::Point(5, y + 4), font, 0.4, black, 1, cv::LINE_AA);
   }
   cv::putText(m, "tau [s]", cv::Point(box.x + box.width / 2 - 25, height - 8), font, 0.45, black, 1, cv::LINE_AA);
-  cv::putText(m, "ADEV [rad/s]", cv::Point(5, box.y - 8), font, 0.4, black, 1, cv::LINE_AA);
+  cv::putText(m, "ADEV [rad/s]", cv::Point(5, height - 8), font, 0.4, black, 1, cv::LINE_AA);
   cv::rectangle(m, box, black, 1);
   // Axis colours (RGB buffer): x red, y green, z blue.
   const cv::Scalar colors[] = {cv::Scalar(214, 39, 40), cv::Scalar(44, 160, 44), cv::Scalar(31, 119, 180),
