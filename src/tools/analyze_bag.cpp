@@ -379,12 +379,13 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
   // would double the run time); the mean (gravity) is removed first.
   std::vector<AxisAnalysis> accel_results;
   std::vector<double> accel_means;
+  std::string accel_note;  // why the accelerometer was not analysed (stdout, not a warning: gyro-only IMUs are fine)
   if (args.accel && !accel[0].empty() && accel[0].size() == t.size()) {
     bool published = false;  // an IMU without accelerometer publishes zeros
     for (const auto& v : accel)
       for (double x : v) published = published || (x != 0 && std::isfinite(x));
     if (!published) {
-      meta.warnings.push_back("linear_acceleration is all zero: accelerometer not analysed");
+      accel_note = "accelerometer: linear_acceleration is all zero (not published?): not analysed";
     } else {
       AnalysisOptions ao = opt;
       ao.wavelet_split = false;
@@ -436,6 +437,7 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
                 1.0 / tau0, static_cast<double>(ss.report.kept) * tau0, meta.tau_grid.c_str());
     std::printf("%s", summaryTable(results).c_str());
     if (!accel_results.empty()) std::printf("%s", accelSummaryTable(accel_results).c_str());
+    if (!accel_note.empty()) std::printf("%s\n", accel_note.c_str());
     std::printf("wrote %s/report.%s, %s/allan.csv and %s/imu.yaml (Kalibr)\n", args.output.c_str(),
                 args.format.c_str(), args.output.c_str(), args.output.c_str());
   }
