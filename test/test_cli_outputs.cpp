@@ -171,6 +171,24 @@ TEST_F(Outputs, PlotScriptWritesPngOfTheDocumentedSize) {
   EXPECT_EQ(pngSize(dir + "/allan.png").second, 400u);
 }
 
+TEST_F(Outputs, AnalyzeBagRunsThePlotAndSurvivesAFailingOne) {
+  const std::string out = kOut + "/with_plot";
+  const ToolRun r = run("env -u GYRO_ALLAN_NO_PLOT " + kTools + "/analyze_bag " + kOut + "/batch_in/sim4.bag --quiet "
+                        "--duration 120 --output " + out);
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto size = pngSize(out + "/allan.png");
+  EXPECT_EQ(size.first, 1500u);
+  EXPECT_EQ(size.second, 800u);  // gyro and accelerometer rows
+  // A plot script that fails (as with matplotlib missing): exit 0, one warning line, the report still written.
+  std::ofstream(kOut + "/bad_plot.py") << "import sys\nprint('plot_allan: python3-matplotlib missing')\nsys.exit(2)\n";
+  const ToolRun b = run("env -u GYRO_ALLAN_NO_PLOT GYRO_ALLAN_PLOT_SCRIPT=" + kOut + "/bad_plot.py " + kTools +
+                        "/analyze_bag " + kOut + "/batch_in/sim4.bag --duration 120 --output " + out + "_bad");
+  EXPECT_EQ(b.code, 0) << b.err;
+  EXPECT_NE(b.err.find("warning: no plot: plot_allan: python3-matplotlib missing"), std::string::npos) << b.err;
+  EXPECT_FALSE(slurp(out + "_bad/report.yaml").empty());
+  EXPECT_TRUE(slurp(out + "_bad/allan.png").empty());
+}
+
 TEST_F(Outputs, GapBetweenStitchedBagsIsInTheReport) {
   // Two 200 s bags, the second starting 300 s after the first: 100 s missing.
   for (int i = 0; i < 2; ++i) {
