@@ -171,9 +171,11 @@ double modelBic(const Model& m) {
 
 // Fits the model with extra terms, iterating the weights (EDF from the model's own stochastic part). Two starts:
 // the previous model's weighting, and the same model with its rate random walk and ramp removed (the weighting a
-// deterministic effect would give if it, not K or R, explains the long-tau rise); the better BIC wins.
+// deterministic effect would give if it, not K or R, explains the long-tau rise; only when
+// may_replace_long_terms); the better BIC wins.
 Model fitModel(const DeviationCurve& curve, const Model& previous, const FitOptions& fo,
-               const std::vector<ExtraTerm>& extra, const std::vector<TermInfo>& info, int n_nonlinear) {
+               const std::vector<ExtraTerm>& extra, const std::vector<TermInfo>& info, int n_nonlinear,
+               bool may_replace_long_terms) {
   auto from = [&](const DeviationCurve& start, const FitOptions& o) {
     Model m;
     m.extra = extra;
@@ -191,7 +193,7 @@ Model fitModel(const DeviationCurve& curve, const Model& previous, const FitOpti
   };
   Model best = from(previous.weighted, fo);
   const bool long_terms = previous.fit.terms[kRateRandomWalk].value > 0 || previous.fit.terms[kRateRamp].value > 0;
-  if (long_terms && !extra.empty()) {
+  if (long_terms && may_replace_long_terms && !extra.empty()) {
     FitResult shortTau = previous.fit;
     shortTau.terms[kRateRandomWalk] = Coefficient{};
     shortTau.terms[kRateRamp] = Coefficient{};
@@ -353,7 +355,7 @@ ModelCheck checkModel(const std::vector<double>& rate, double tau0, const Deviat
   Model given;
   given.fit = fit;
   given.weighted = weightFor(curve, fit, {}, {});
-  const Model base = fitModel(curve, given, opts.fit, {}, {}, 0);
+  const Model base = fitModel(curve, given, opts.fit, {}, {}, 0, false);
   if (!base.ok) {
     mc.message = "base refit failed: " + base.fit.message;
     mc.fit_after = fit;
@@ -546,7 +548,7 @@ ModelCheck checkModel(const std::vector<double>& rate, double tau0, const Deviat
       };
       c.p0 = ef.tc;
       c.p_lo = std::max(tau0 / 4, ef.tc / 6);
-      c.p_hi = std::min(T / 10, ef.tc * 6);  // >= 10 correlation times in the record to tell it from K
+      c.p_hi = std::min(T / 20, ef.tc * 6);  // >= 20 correlation times in the record to tell it from K
       if (!(c.p_hi > c.p_lo)) continue;
       c.n_nonlinear = 1;
       c.nonlinear_name = "tau_c_s";
@@ -661,14 +663,33 @@ ModelCheck checkModel(const std::vector<double>& rate, double tau0, const Deviat
       const WarmupFit wf = fitWarmup(rb, b * tau0, T / 200, T / 3);
       // White-noise sigma of the block means from their first differences: a random walk or flicker makes the fit's
       // own a_sigma optimistic, so the evidence threshold is high and the BIC decides.
-      if (wf.ok && wf.a_sigma > 0 && std::fabs(wf.a) / wf.a_sigma >= opts.warmup_min_z) {
+      // A random walk of the bias also looks like a warm-up over one record: require the block means left after
+      // the warm-up to be little correlated (lag-1 < 0.5), as they are for white/flicker noise but not for a walk.
+      double resid_rho1 = 1.0;
+      if (wf.ok) {
+        std::vector<double> res(rb.size());
+        double mean = 0;
+        for (size_t i = 0; i < rb.size(); ++i) {
+          res[i] = rb[i] - wf.a * -std::expm1(-(i + 0.5) * b * tau0 / wf.theta);
+          mean += res[i];
+        }
+        mean /= res.size();
+        double c0 = 0, c1 = 0;
+        for (size_t i = 0; i < res.size(); ++i) {
+          c0 += (res[i] - mean) * (res[i] - mean);
+          if (i + 1 < res.size()) c1 += (res[i] - mean) * (res[i + 1] - mean);
+        }
+        resid_rho1 = c0 > 0 ? c1 / c0 : 1.0;
+      }
+      if (wf.ok && wf.a_sigma > 0 && std::fabs(wf.a) / wf.a_sigma >= opts.warmup_min_z && resid_rho1 < 0.5) {
         Candidate c;
         c.type = "warmup";
         c.localized = true;
         char buf[256];
         std::snprintf(buf, sizeof buf,
-                      "%.3g s block means follow a (1 - exp(-t/theta)): a = %.3g +- %.2g, theta = %.3g s", b * tau0,
-                      wf.a, wf.a_sigma, wf.theta);
+                      "%.3g s block means follow a (1 - exp(-t/theta)): a = %.3g +- %.2g, theta = %.3g s, residual "
+                      "lag-1 correlation %.2f",
+                      b * tau0, wf.a, wf.a_sigma, wf.theta, resid_rho1);
         c.evidence = buf;
         c.make = [T](double theta) {
           ExtraTerm e;
@@ -725,7 +746,9 @@ ModelCheck checkModel(const std::vector<double>& rate, double tau0, const Deviat
     ti.tc = p;
     ti.localized = c.localized ? T : 0.0;
     info.push_back(ti);
-    t.model = fitModel(curve, current, opts.fit, ex, info, current.n_nonlinear + c.n_nonlinear);
+    // Only a deterministic effect may stand in for K and R (a stochastic one would just trade places with them).
+    t.model = fitModel(curve, current, opts.fit, ex, info, current.n_nonlinear + c.n_nonlinear,
+                       c.nature == Nature::Deterministic);
     return t;
   };
   for (int round = 0; round < opts.max_effects; ++round) {

@@ -20,7 +20,7 @@ namespace {
 void usage() {
   std::fprintf(stderr,
                "usage: validate_adis adis [--data DIR] [--out DIR] [--runs 1,2,3]\n"
-               "       validate_adis controls [--seeds N] [--rate HZ] [--duration S]\n"
+               "       validate_adis controls [--seeds N] [--rate HZ] [--duration S] [--mix 1|2|3]\n"
                "  adis:     per run and gyro axis: oadev (log grid, 10/decade), IEEE 952 fit, model check; prints a\n"
                "            table and writes DIR/adis_model_check.csv (curves) and DIR/adis_summary.csv\n"
                "  controls: simulated axes with IEEE noise only (several noise mixes); counts seeds where the check\n"
@@ -174,9 +174,12 @@ int runControls(int argc, char** argv) {
   mixes[2].name = "N+K strong random walk";
   mixes[2].a.angle_random_walk = 1e-4;
   mixes[2].a.rate_random_walk = 3e-6;
+  const int only = std::atoi(argValue(argc, argv, "--mix", "0").c_str());  // 1..3: one mix only
   ModelCheckOptions mo;
   int total = 0, total_fp = 0;
-  for (const auto& mix : mixes) {
+  for (size_t mi = 0; mi < mixes.size(); ++mi) {
+    if (only > 0 && static_cast<int>(mi) + 1 != only) continue;
+    const Mix& mix = mixes[mi];
     int fp = 0;
     std::string kinds;
     for (int s = 1; s <= seeds; ++s) {
