@@ -45,6 +45,7 @@ int lines(const std::string& s) {
 class Cli : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
+    setenv("GYRO_ALLAN_NO_PLOT", "1", 1);  // plots are tested in test_cli_outputs; keep this suite fast
     ASSERT_EQ(std::system(("mkdir -p " + kOut).c_str()), 0);
     // 20 min, 200 Hz, N = 1e-3 rad/sqrt(s), K = 1e-5 rad/s/sqrt(s).
     const ToolRun r = run(kTools + "/simulate --output " + kOut + "/sim.bag --rate 200 --duration 1200 --arw 1e-3 --rrw 1e-5 "
@@ -82,7 +83,7 @@ TEST_F(Cli, BagRoundTripRecoversDeclaredNoise) {
   std::ifstream csv(kOut + "/bag_out/allan.csv");
   std::string header;
   std::getline(csv, header);
-  EXPECT_EQ(header, "axis,deviation,tau_s,m,dev,dev_lo,dev_hi,edf,alpha,n_terms,model_dev");
+  EXPECT_EQ(header, "axis,deviation,tau_s,m,dev,dev_lo,dev_hi,edf,alpha,n_terms,model_dev,model_joint_dev,model_check_dev");
 }
 
 TEST_F(Cli, CsvInputGivesTheSameAnswerAsTheBag) {
