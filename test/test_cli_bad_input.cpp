@@ -143,7 +143,10 @@ void expectNoWarning(const Analysed& a) {
 
 class BadInput : public ::testing::Test {
  protected:
-  static void SetUpTestSuite() { ASSERT_EQ(std::system(("mkdir -p " + kOut).c_str()), 0); }
+  static void SetUpTestSuite() {
+    ASSERT_EQ(std::system(("mkdir -p " + kOut).c_str()), 0);
+    setenv("GYRO_ALLAN_NO_PLOT", "1", 1);  // the plot is not under test here (and costs a Python start per run)
+  }
 };
 
 TEST_F(BadInput, CleanControlHasNoWarning) {
