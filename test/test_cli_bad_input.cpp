@@ -87,6 +87,8 @@ ros::Time stampOf(double t) {
 
 void writeBag(const std::string& path, const std::vector<Msg>& msgs) {
   rosbag::Bag bag(path, rosbag::bagmode::Write);
+  std::mt19937_64 rng(99);
+  std::normal_distribution<double> acc(0.0, 0.02);  // accelerometer at rest: gravity on z plus white noise
   ros::Time last = stampOf(0);
   for (const Msg& m : msgs) {
     sensor_msgs::Imu imu;
@@ -95,6 +97,9 @@ void writeBag(const std::string& path, const std::vector<Msg>& msgs) {
     imu.angular_velocity.x = m.x;
     imu.angular_velocity.y = m.y;
     imu.angular_velocity.z = m.z;
+    imu.linear_acceleration.x = acc(rng);
+    imu.linear_acceleration.y = acc(rng);
+    imu.linear_acceleration.z = 9.80665 + acc(rng);
     last += ros::Duration(0, 1000);  // receive time: strictly increasing, whatever the header says
     bag.write("/imu", last, imu);
   }
