@@ -120,6 +120,22 @@ TEST_F(Cli, JsonFormatAndDeviations) {
   EXPECT_GT(hdev, 10);
 }
 
+// The bundled bag (bags/README.md: N = 2e-4 rad/sqrt(s), B = 2e-5 rad/s, K = 2e-6 rad/s/sqrt(s), nothing else): N
+// within 2 % on every axis, and the model check — told nothing — adds no effect (a clean control).
+TEST_F(Cli, DefaultBagIsACleanControl) {
+  const ToolRun r = run(kTools + "/analyze_bag " + std::string(GYRO_ALLAN_SOURCE_DIR) + "/bags/default.bag --output " +
+                        kOut + "/default --quiet");
+  ASSERT_EQ(r.code, 0) << r.err;
+  const YAML::Node rep = YAML::LoadFile(kOut + "/default/report.yaml");
+  for (const char* ax : {"x", "y", "z"}) {
+    const YAML::Node a = rep["axes"][ax];
+    EXPECT_NEAR(a["coefficients"]["angle_random_walk"]["value"].as<double>() / 2e-4, 1.0, 0.02) << ax;
+    EXPECT_EQ(a["method"].as<std::string>(), "joint_fit") << ax;
+    ASSERT_TRUE(a["model_check"]) << ax;
+    EXPECT_EQ(a["model_check"]["effects"].size(), 0u) << ax << ": " << YAML::Dump(a["model_check"]["effects"]);
+  }
+}
+
 TEST_F(Cli, HelpWorks) {
   const ToolRun r = run(kTools + "/analyze_bag --help");
   EXPECT_EQ(r.code, 0);

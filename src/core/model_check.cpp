@@ -832,6 +832,18 @@ ModelCheck checkModel(const std::vector<double>& rate, double tau0, const Deviat
         }
       break;
     }
+    // A warm-up without a temperature series must also describe the curve better: a stretch of rate random walk
+    // looks like a slow exponential in the block means (seen on bags/default.bag: +10 % RMS error for a BIC gain),
+    // so a BIC gain that comes with a larger RMS log error is a traded weight, not a better model. (A bias step
+    // is exempt: its AVAR mimics rate random walk, so its refit may fit the curve slightly worse while correcting K.)
+    const double rms_now = rmsLog10(curve, current.fit.model_var, rms_mask);
+    const double rms_new = rmsLog10(curve, best.model.fit.model_var, rms_mask);
+    if (c.type == "warmup" && std::isfinite(rms_now) && std::isfinite(rms_new) && rms_new > rms_now) {
+      mc.rejected.push_back(c.type + ": BIC improves by " + fmt("%.1f", gain) + " but the RMS log10 error grows (" +
+                            fmt("%.4f", rms_now) + " -> " + fmt("%.4f", rms_new) + "; " + c.evidence + ")");
+      c.used = true;
+      continue;
+    }
     c.used = true;
     DetectedEffect eff;
     eff.type = c.type;
