@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "gyro_allan/noise_model.hpp"
+#include "gyro_allan/model_check.hpp"
 #include "gyro_allan/sliding_allan.hpp"
 
 using namespace gyro_allan;
@@ -82,28 +83,11 @@ BENCHMARK(BM_Update3Axis_octave)->Args({3600, 2})->Unit(benchmark::kNanosecond);
 // Per hop: snapshot the three curves, EDF + confidence, two-pass fit (as AnalyzerNodelet::fitWithNoiseId).
 void BM_HopFit3Axis(benchmark::State& state) {
   Filled& f = filled(3600, "log:10", 2);
-  static const int kAlpha[kNumTerms] = {2, 0, -1, -2, -2};
   for (auto _ : state) {
     for (auto& a : f.axes) {
       DeviationCurve c = a->curve();
       fillConfidence(&c, 0.683);
-      FitResult fit = fitNoiseModel(c);
-      if (fit.ok) {
-        for (auto& pt : c.points) {
-          int best = kAngleRandomWalk;
-          double bv = -1;
-          for (int t = 0; t < kNumTerms; ++t) {
-            const double v = termVariance(fit, t, pt.tau);
-            if (v > bv) {
-              bv = v;
-              best = t;
-            }
-          }
-          pt.alpha = kAlpha[best];
-        }
-        fillConfidence(&c, 0.683);
-        fit = fitNoiseModel(c);
-      }
+      FitResult fit = fitWithModelEdf(&c, FitOptions{}, 0.683);
       benchmark::DoNotOptimize(fit);
     }
   }

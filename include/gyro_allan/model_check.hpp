@@ -90,6 +90,12 @@ struct ModelCheck {
 /// noise identification is unreliable (few long-tau terms); fit again on the result.
 DeviationCurve withModelEdf(const DeviationCurve& curve, const FitResult& fit, double confidence = 0.683);
 
+/// Two-pass IEEE fit: fitNoiseModel with the curve's EDFs, then each point's noise type taken from the model term that
+/// dominates there (withModelEdf: Q white PM, N white FM, B flicker FM, K and R random-walk FM) and fitted again.
+/// Far less noisy than per-point noise identification at long tau. *curve receives the model-based EDFs and bounds.
+/// Used by analyzeAxis and the nodelet alike.
+FitResult fitWithModelEdf(DeviationCurve* curve, const FitOptions& options = {}, double confidence = 0.683);
+
 /// Runs the check. `curve` is the measured AVAR curve (oadev with EDF) of `rate` (sample interval tau0), `fit` its
 /// plain IEEE fit with opts.fit. temperature (optional) must have rate.size() samples. Throws
 /// std::invalid_argument on inconsistent input.

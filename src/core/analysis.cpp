@@ -72,7 +72,12 @@ AxisAnalysis analyzeAxis(const std::string& axis, const std::vector<std::vector<
       a.curves.push_back(computeDeviation(d, segments, options.input, tau0, options.deviation));
       enforceRedderWithTau(&a.curves.back(), options.deviation.confidence);
     }
-  a.fit = fitNoiseModel(a.oadev, options.fit);
+  {
+    // Fit weights: two passes, the second with each point's EDF from the noise type of the dominating model term
+    // (as the nodelet does); the curve written out keeps its own (identified) EDFs and bounds.
+    DeviationCurve weighted = a.oadev;
+    a.fit = fitWithModelEdf(&weighted, options.fit, options.deviation.confidence);
+  }
 
   // Stages that need contiguous raw samples run on the longest gap-free segment.
   size_t longest = 0;

@@ -242,6 +242,13 @@ double rmsLog10(const DeviationCurve& curve, const std::vector<double>& model, c
 
 }  // namespace
 
+FitResult fitWithModelEdf(DeviationCurve* curve, const FitOptions& options, double confidence) {
+  FitResult f = fitNoiseModel(*curve, options);
+  if (!f.ok) return f;
+  *curve = withModelEdf(*curve, f, confidence);
+  return fitNoiseModel(*curve, options);
+}
+
 DeviationCurve withModelEdf(const DeviationCurve& curve, const FitResult& fit, double confidence) {
   if (fit.model_var.size() != curve.points.size())
     throw std::invalid_argument("withModelEdf: fit does not belong to the curve (point counts differ)");

@@ -512,23 +512,7 @@ FitResult AnalyzerNodelet::fitWithNoiseId(DeviationCurve* c) const {
     return f;
   }
   fillConfidence(c, p_.confidence);
-  FitResult f = fitNoiseModel(*c);
-  if (!f.ok) return f;
-  static const int kAlpha[kNumTerms] = {2, 0, -1, -2, -2};
-  for (auto& pt : c->points) {
-    int best = kAngleRandomWalk;
-    double best_var = -1;
-    for (int t = 0; t < kNumTerms; ++t) {
-      const double v = termVariance(f, t, pt.tau);
-      if (v > best_var) {
-        best_var = v;
-        best = t;
-      }
-    }
-    pt.alpha = kAlpha[best];
-  }
-  fillConfidence(c, p_.confidence);
-  return fitNoiseModel(*c);
+  return fitWithModelEdf(c, FitOptions{}, p_.confidence);
 }
 
 void AnalyzerNodelet::publishResults(const Snapshot& snap) {
