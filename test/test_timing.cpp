@@ -65,3 +65,17 @@ TEST(Timing, RejectsMismatchedAxes) {
   EXPECT_THROW(sanitize(t, {&v}), std::invalid_argument);
   EXPECT_THROW(sanitize(t, {}), std::invalid_argument);
 }
+
+TEST(Timing, ValueAnomaliesFindShocksAndSaturation) {
+  std::vector<double> v(10000);
+  for (size_t i = 0; i < v.size(); ++i) v[i] = 1e-3 * std::sin(0.37 * static_cast<double>(i));  // bounded "noise"
+  EXPECT_EQ(detectValueAnomalies(v).spikes, 0);
+  v[100] = 0.5;  // shock
+  v[2000] = -0.7;
+  for (int i = 5000; i < 5010; ++i) v[static_cast<size_t>(i)] = 5.2;  // clipped at full scale
+  const auto a = detectValueAnomalies(v);
+  EXPECT_EQ(a.spikes, 2);
+  EXPECT_EQ(a.saturation_runs, 1);
+  EXPECT_EQ(a.saturated, 10);
+  EXPECT_EQ(a.warnings("axis x").size(), 2u);
+}

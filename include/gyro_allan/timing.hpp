@@ -52,6 +52,20 @@ struct SanitizeOptions {
   size_t min_segment = 2;       ///< shorter segments are dropped (and counted in gaps)
 };
 
+/// Impulsive shocks and saturation on one rate axis. Robust centre and spread (median and MAD of at most ~1e6
+/// evenly spaced samples); a sample farther than max(10 robust sigma, min_rate) from the median is extreme; a run of
+/// >= 5 identical extreme values is saturation, other extreme samples are spikes (shocks). Samples are not removed:
+/// these are warnings for the user.
+struct ValueAnomalies {
+  int64_t spikes = 0;             ///< extreme samples outside saturation runs
+  int64_t saturation_runs = 0;    ///< runs of >= 5 identical extreme values
+  int64_t saturated = 0;          ///< samples in those runs
+  double threshold = 0;           ///< distance from the median that counts as extreme (input units)
+  /// One line per anomaly class found, each prefixed with `what` (e.g. "axis x").
+  std::vector<std::string> warnings(const std::string& what) const;
+};
+ValueAnomalies detectValueAnomalies(const std::vector<double>& v, double min_rate = 0.1);
+
 /// Sanitizes a multi-axis series (axes = 1..3 vectors of the same length as t).
 SanitizedSeries sanitize(const std::vector<double>& t, const std::vector<const std::vector<double>*>& axes,
                          const SanitizeOptions& options = {});

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <stdexcept>
 
 namespace gyro_allan {
@@ -66,6 +67,49 @@ std::vector<std::vector<double>> SanitizedSeries::interpolateSegments(const std:
     out.push_back(std::move(v));
   }
   return out;
+}
+
+ValueAnomalies detectValueAnomalies(const std::vector<double>& v, double min_rate) {
+  ValueAnomalies a;
+  if (v.size() < 16) return a;
+  const size_t step = std::max<size_t>(1, v.size() / 1000000);
+  std::vector<double> s;
+  for (size_t i = 0; i < v.size(); i += step)
+    if (std::isfinite(v[i])) s.push_back(v[i]);
+  if (s.empty()) return a;
+  const double m = median(s);
+  for (auto& x : s) x = std::fabs(x - m);
+  a.threshold = std::max(10 * 1.4826 * median(s), min_rate);
+  for (size_t i = 0; i < v.size();) {
+    size_t j = i + 1;
+    while (j < v.size() && v[j] == v[i]) ++j;
+    if (std::fabs(v[i] - m) > a.threshold) {
+      if (j - i >= 5) {
+        ++a.saturation_runs;
+        a.saturated += static_cast<int64_t>(j - i);
+      } else {
+        a.spikes += static_cast<int64_t>(j - i);
+      }
+    }
+    i = j;
+  }
+  return a;
+}
+
+std::vector<std::string> ValueAnomalies::warnings(const std::string& what) const {
+  std::vector<std::string> w;
+  char buf[200];
+  if (spikes > 0) {
+    std::snprintf(buf, sizeof buf, "%s: %lld impulsive samples (shocks) more than %.3g rad/s from the median",
+                  what.c_str(), static_cast<long long>(spikes), threshold);
+    w.push_back(buf);
+  }
+  if (saturation_runs > 0) {
+    std::snprintf(buf, sizeof buf, "%s: %lld runs of identical extreme values (%lld samples): saturation?", what.c_str(),
+                  static_cast<long long>(saturation_runs), static_cast<long long>(saturated));
+    w.push_back(buf);
+  }
+  return w;
 }
 
 SanitizedSeries sanitize(const std::vector<double>& t, const std::vector<const std::vector<double>*>& axes,

@@ -168,44 +168,6 @@ std::vector<std::string> splitList(const std::string& s) {
   return out;
 }
 
-/// Impulsive shocks and saturation on one rate axis: robust centre and spread (median, MAD of at most ~1e6 samples),
-/// then runs of extreme values (> max(10 sigma, 0.1 rad/s) from the median). A run of >= 5 identical extreme values is
-/// saturation; other extreme samples are spikes. Both are warnings: the samples stay in the analysis.
-void valueWarnings(const std::string& axis, const std::vector<double>& v, std::vector<std::string>* warnings) {
-  if (v.size() < 16) return;
-  const size_t step = std::max<size_t>(1, v.size() / 1000000);
-  std::vector<double> s;
-  for (size_t i = 0; i < v.size(); i += step) s.push_back(v[i]);
-  auto median = [](std::vector<double>& x) {
-    std::nth_element(x.begin(), x.begin() + static_cast<long>(x.size() / 2), x.end());
-    return x[x.size() / 2];
-  };
-  const double m = median(s);
-  for (auto& x : s) x = std::fabs(x - m);
-  const double thr = std::max(10 * 1.4826 * median(s), 0.1);
-  int64_t spikes = 0, runs = 0, saturated = 0;
-  for (size_t i = 0; i < v.size();) {
-    size_t j = i + 1;
-    while (j < v.size() && v[j] == v[i]) ++j;
-    if (std::fabs(v[i] - m) > thr) {
-      if (j - i >= 5) ++runs, saturated += static_cast<int64_t>(j - i);
-      else spikes += static_cast<int64_t>(j - i);
-    }
-    i = j;
-  }
-  char buf[200];
-  if (spikes > 0) {
-    std::snprintf(buf, sizeof buf, "axis %s: %lld impulsive samples (shocks) more than %.3g rad/s from the median",
-                  axis.c_str(), static_cast<long long>(spikes), thr);
-    warnings->push_back(buf);
-  }
-  if (runs > 0) {
-    std::snprintf(buf, sizeof buf, "axis %s: %lld runs of identical extreme values (%lld samples): saturation?",
-                  axis.c_str(), static_cast<long long>(runs), static_cast<long long>(saturated));
-    warnings->push_back(buf);
-  }
-}
-
 void makeDir(const std::string& dir) {
   std::string path;
   std::stringstream ss(dir);
@@ -368,7 +330,8 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
   // A gyro at rest reads Earth rate plus bias: hundreds of deg/s means wrong units or a moving sensor.
   std::vector<AxisAnalysis> results;
   for (size_t a = 0; a < values.size(); ++a) {
-    if (opt.input == InputKind::Rate) valueWarnings(names[a], ss.v[a], &meta.warnings);
+    if (opt.input == InputKind::Rate)
+      for (const auto& w : detectValueAnomalies(ss.v[a]).warnings("axis " + names[a])) meta.warnings.push_back(w);
     results.push_back(analyzeAxis(names[a], ss.segmentValues(static_cast<int>(a)), tau0, opt,
                                   temperature_segments.empty() ? nullptr : &temperature_segments));
     if (opt.input == InputKind::Rate && std::fabs(results.back().mean) > 1.0)
