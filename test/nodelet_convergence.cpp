@@ -268,6 +268,15 @@ TEST(NodeletConvergence, ConvergesReactsAndRecovers) {
   })) << "after malformed input: reports " << h.reports() - before << ", stamps '" << h.message("stamps")
       << "', values '" << h.message("input values") << "'";
   expectConverged(h.lastReport(), "after bad input");
+
+  // F. One stamp 1000 s in the future (a clock glitch): the following samples are out of order with respect to it;
+  // after a short run the nodelet restarts its timeline, keeps reporting and the stamps status recovers.
+  h.clearMax();
+  h.publish(h.stamp(h.next() + 1000000), 0.0, 0.0, 0.0);
+  const int before_glitch = h.reports();
+  EXPECT_TRUE(h.publishUntil(15.0, [&] { return h.reports() >= before_glitch + 3 && h.level("stamps") == OK; }))
+      << "after a future stamp: reports " << h.reports() - before_glitch << ", stamps '" << h.message("stamps") << "'";
+  expectConverged(h.lastReport(), "after a stamp glitch");
 }
 
 int main(int argc, char** argv) {

@@ -373,11 +373,22 @@ void AnalyzerNodelet::processSample(Source source, const ros::Time& stamp, const
       dropped_since_last_ = true;
       return;
     }
+    bool restart = false;
     if (have_last_ && stamp < last_stamp_) {
       out_of_order_.add(now);
-      return;
+      // A single stamp far in the future must not stop the input until real time catches up with it: once
+      // kGlitchRun consecutive samples, increasing among themselves, lie before the last accepted stamp, that stamp
+      // was the glitch (or the clock jumped back). The timeline restarts at them as a new segment; the run is lost
+      // and counted as out of order.
+      ooo_run_ = (ooo_run_ > 0 && stamp > ooo_last_) ? ooo_run_ + 1 : 1;
+      ooo_last_ = stamp;
+      if (ooo_run_ < kGlitchRun) return;
+      restart = true;
+      ++timeline_restarts_;
+      last_hop_ = stamp;
     }
-    if (have_last_ && stamp == last_stamp_) {
+    ooo_run_ = 0;
+    if (!restart && have_last_ && stamp == last_stamp_) {
       duplicate_.add(now);
       return;
     }
@@ -394,7 +405,7 @@ void AnalyzerNodelet::processSample(Source source, const ros::Time& stamp, const
       return;
     }
 
-    const double dt = have_last_ ? (stamp - last_stamp_).toSec() : 0.0;
+    const double dt = (have_last_ && !restart) ? (stamp - last_stamp_).toSec() : 0.0;
     const bool first = !have_last_;
     have_last_ = true;
     last_stamp_ = stamp;
@@ -403,7 +414,7 @@ void AnalyzerNodelet::processSample(Source source, const ros::Time& stamp, const
     last_accept_wall_ = now;
 
     if (tau0_ <= 0) {  // learning the rate: samples are not analysed yet
-      if (!first && !dropped_since_last_) learn_dt_.push_back(dt);
+      if (!first && !dropped_since_last_ && !restart) learn_dt_.push_back(dt);
       dropped_since_last_ = false;
       if (static_cast<int>(learn_dt_.size()) >= p_.learn_samples) {
         const double med = median(learn_dt_);
@@ -415,11 +426,11 @@ void AnalyzerNodelet::processSample(Source source, const ros::Time& stamp, const
 
     bool gap = false;
     if (!first) {
-      if (dt > p_.gap_factor * tau0_) {
+      if (restart || dt > p_.gap_factor * tau0_) {
         gap = true;
-        if (!dropped_since_last_) gap_.add(now);  // a gap we caused by dropping a sample is not a stamp problem
+        if (!dropped_since_last_ && !restart) gap_.add(now);  // a gap we caused by dropping samples is not one
       }
-      checkRate(dt);  // may restart the accumulators (rate change)
+      if (!restart) checkRate(dt);  // may restart the accumulators (rate change)
     }
     dropped_since_last_ = false;
     const bool new_seg = gap || seg_stamps_.empty() || allan_[0]->phasePoints() == 0;
@@ -718,6 +729,7 @@ void AnalyzerNodelet::diagStamps(diagnostic_updater::DiagnosticStatusWrapper& st
   stat.add("gaps (recent)", gaps);
   stat.add("rate changes (recent)", rate);
   stat.add("out of order (total)", out_of_order_.total);
+  stat.add("timeline restarts after a stamp glitch (total)", timeline_restarts_);
   stat.add("duplicates (total)", duplicate_.total);
   stat.add("zero stamps (total)", zero_stamp_.total);
   stat.add("gaps (total)", gap_.total);

@@ -126,6 +126,11 @@ class AnalyzerNodelet : public nodelet::Nodelet {
   std::array<std::unique_ptr<SlidingAllan>, 3> allan_;
   bool have_last_ = false;
   ros::Time last_stamp_;
+  // Forward stamp glitch recovery: consecutive out-of-order samples, increasing among themselves.
+  static constexpr int kGlitchRun = 16;
+  int ooo_run_ = 0;
+  ros::Time ooo_last_;
+  size_t timeline_restarts_ = 0;
   bool dropped_since_last_ = false;          ///< a sample was dropped since the last accepted one
   std::deque<double> recent_dt_;             ///< last intervals for rate-change detection
   int64_t dt_since_check_ = 0;
