@@ -14,27 +14,15 @@
 #include <sensor_msgs/Temperature.h>
 #include <yaml-cpp/yaml.h>
 
+#include "cli_util.hpp"
+
 namespace {
 
 const std::string kTools = GYRO_ALLAN_TOOL_DIR;
 const std::string kOut = std::string(GYRO_ALLAN_TEST_OUT) + "/cli";
 
-struct ToolRun {
-  int code;
-  std::string out, err;
-};
-
-ToolRun run(const std::string& args) {
-  const std::string o = kOut + "/stdout.txt", e = kOut + "/stderr.txt";
-  const int status = std::system((args + " >" + o + " 2>" + e).c_str());
-  auto slurp = [](const std::string& p) {
-    std::ifstream f(p);
-    std::stringstream ss;
-    ss << f.rdbuf();
-    return ss.str();
-  };
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(o), slurp(e)};
-}
+using gyro_allan_test::ToolRun;
+ToolRun run(const std::string& args) { return gyro_allan_test::runTool(args, kOut); }
 
 int lines(const std::string& s) {
   int n = 0;

@@ -14,29 +14,17 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include "cli_util.hpp"
+
 namespace {
 
 const std::string kTools = GYRO_ALLAN_TOOL_DIR;
 const std::string kSource = GYRO_ALLAN_SOURCE_DIR;
 const std::string kOut = std::string(GYRO_ALLAN_TEST_OUT) + "/cli_outputs";
 
-struct ToolRun {
-  int code;
-  std::string out, err;
-};
-
-std::string slurp(const std::string& p) {
-  std::ifstream f(p, std::ios::binary);
-  std::stringstream ss;
-  ss << f.rdbuf();
-  return ss.str();
-}
-
-ToolRun run(const std::string& args) {
-  const std::string o = kOut + "/stdout.txt", e = kOut + "/stderr.txt";
-  const int status = std::system((args + " >" + o + " 2>" + e).c_str());
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(o), slurp(e)};
-}
+using gyro_allan_test::slurp;
+using gyro_allan_test::ToolRun;
+ToolRun run(const std::string& args) { return gyro_allan_test::runTool(args, kOut); }
 
 /// Width and height from a PNG's IHDR chunk (bytes 16..23, big endian); {0, 0} if not a PNG.
 std::pair<uint32_t, uint32_t> pngSize(const std::string& path) {
