@@ -192,6 +192,15 @@ FitResult fitNoiseModel(const DeviationCurve& curve, const FitOptions& options, 
       (*b)[i] = s * p.var;
     }
   };
+  // Design with unit-norm columns (the basis functions span ~12 decades over the taus); scale holds the norms.
+  auto scaledDesign = [&](const std::vector<int>& cols, Eigen::MatrixXd* A, Eigen::VectorXd* b, Eigen::VectorXd* scale) {
+    design(cols, A, b);
+    scale->resize(A->cols());
+    for (int k = 0; k < A->cols(); ++k) {
+      (*scale)[k] = A->col(k).norm();
+      if ((*scale)[k] > 0) A->col(k) /= (*scale)[k];
+    }
+  };
   auto activeCols = [&]() {
     std::vector<int> cols;
     for (size_t k = 0; k < all_cols.size(); ++k)
@@ -211,13 +220,8 @@ FitResult fitNoiseModel(const DeviationCurve& curve, const FitOptions& options, 
     for (int it = 0; it < std::max(1, options.iterations); ++it) {
       const std::vector<int> cols = activeCols();
       Eigen::MatrixXd A;
-      Eigen::VectorXd b;
-      design(cols, &A, &b);
-      Eigen::VectorXd scale(A.cols());
-      for (int k = 0; k < A.cols(); ++k) {
-        scale[k] = A.col(k).norm();
-        if (scale[k] > 0) A.col(k) /= scale[k];
-      }
+      Eigen::VectorXd b, scale;
+      scaledDesign(cols, &A, &b, &scale);
       Eigen::VectorXd x = nnls(A, b);
       c.setZero();
       for (size_t k = 0; k < cols.size(); ++k)
@@ -228,13 +232,8 @@ FitResult fitNoiseModel(const DeviationCurve& curve, const FitOptions& options, 
   // Covariance of c over the given columns at the current weights (inverse Fisher information).
   auto covariance = [&](const std::vector<int>& cols, Eigen::MatrixXd* cov) {
     Eigen::MatrixXd A;
-    Eigen::VectorXd b;
-    design(cols, &A, &b);
-    Eigen::VectorXd scale(A.cols());
-    for (int k = 0; k < A.cols(); ++k) {
-      scale[k] = A.col(k).norm();
-      if (scale[k] > 0) A.col(k) /= scale[k];
-    }
+    Eigen::VectorXd b, scale;
+    scaledDesign(cols, &A, &b, &scale);
     Eigen::MatrixXd F = A.transpose() * A;
     Eigen::MatrixXd Finv = F.completeOrthogonalDecomposition().pseudoInverse();
     *cov = Finv;
@@ -330,13 +329,8 @@ FitResult fitNoiseModel(const DeviationCurve& curve, const FitOptions& options, 
     std::vector<int> cols = pos;
     cols.push_back(static_cast<int>(k));
     Eigen::MatrixXd A;
-    Eigen::VectorXd b;
-    design(cols, &A, &b);
-    Eigen::VectorXd scale(A.cols());
-    for (int j = 0; j < A.cols(); ++j) {
-      scale[j] = A.col(j).norm();
-      if (scale[j] > 0) A.col(j) /= scale[j];
-    }
+    Eigen::VectorXd b, scale;
+    scaledDesign(cols, &A, &b, &scale);
     Eigen::VectorXd x = A.colPivHouseholderQr().solve(b);
     const int last = static_cast<int>(cols.size()) - 1;
     const double cu = scale[last] > 0 ? x[last] / scale[last] : 0.0;
