@@ -69,6 +69,7 @@ MeanShift detectMeanShift(const std::vector<double>& x, int64_t block, double z_
 /// Ordinary least squares y = intercept + slope x with the slope's standard error and the correlation r.
 struct LinearRegression {
   double slope = 0, slope_sigma = 0, intercept = 0, r = 0;
+  double rss = 0;  ///< residual sum of squares
   int n = 0;
 };
 LinearRegression linearRegression(const std::vector<double>& x, const std::vector<double>& y);

@@ -289,8 +289,8 @@ LinearRegression linearRegression(const std::vector<double>& x, const std::vecto
   lr.slope = sxy / sxx;
   lr.intercept = my - lr.slope * mx;
   lr.r = (syy > 0) ? sxy / std::sqrt(sxx * syy) : 0.0;
-  const double rss = std::max(0.0, syy - lr.slope * sxy);
-  lr.slope_sigma = std::sqrt(rss / (n - 2) / sxx);
+  lr.rss = std::max(0.0, syy - lr.slope * sxy);
+  lr.slope_sigma = std::sqrt(lr.rss / (n - 2) / sxx);
   return lr;
 }
 
@@ -303,28 +303,19 @@ WarmupFit fitWarmup(const std::vector<double>& bm, double block_s, double theta_
     const double theta = theta_min * std::pow(theta_max / theta_min, static_cast<double>(s) / steps);
     std::vector<double> g(n);
     for (int64_t i = 0; i < n; ++i) g[i] = -std::expm1(-(i + 0.5) * block_s / theta);
-    double mg = 0, my = 0;
-    for (int64_t i = 0; i < n; ++i) {
-      mg += g[i];
-      my += bm[i];
+    LinearRegression lr;
+    try {
+      lr = linearRegression(g, bm);  // block means = c + a g
+    } catch (const std::invalid_argument&) {
+      continue;  // g constant at this theta
     }
-    mg /= n;
-    my /= n;
-    double sgg = 0, sgy = 0, syy = 0;
-    for (int64_t i = 0; i < n; ++i) {
-      sgg += (g[i] - mg) * (g[i] - mg);
-      sgy += (g[i] - mg) * (bm[i] - my);
-      syy += (bm[i] - my) * (bm[i] - my);
-    }
-    if (!(sgg > 0)) continue;
-    const double a = sgy / sgg;
-    const double rss = std::max(0.0, syy - a * sgy);
-    if (!best.ok || rss < best.rss) {
+    if (!best.ok || lr.rss < best.rss) {
       best.ok = true;
       best.theta = theta;
-      best.a = a;
-      best.rss = rss;
-      best.a_sigma = std::sqrt(rss / std::max<int64_t>(1, n - 3) / sgg);
+      best.a = lr.slope;
+      best.rss = lr.rss;
+      // theta was fitted too: n - 3 degrees of freedom instead of the regression's n - 2.
+      best.a_sigma = lr.slope_sigma * std::sqrt(static_cast<double>(n - 2) / std::max<int64_t>(1, n - 3));
     }
   }
   return best;
