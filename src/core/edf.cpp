@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <stdexcept>
+#include <unordered_map>
 
 #include "allan_internal.hpp"
 #include "gyro_allan/allan.hpp"
@@ -67,9 +68,41 @@ double normalQuantile(double p) {
 
 }  // namespace
 
+namespace {
+
+/// chi2Quantile without the cache.
+double chi2QuantileUncached(double p, double dof);
+
+/// Memo of chi2Quantile per thread: the fits re-fill confidence intervals of the same points (same EDF) dozens of
+/// times, and one evaluation at EDF ~1e5 costs thousands of series terms per Newton step.
+struct QuantileKey {
+  double p, dof;
+  bool operator==(const QuantileKey& o) const { return p == o.p && dof == o.dof; }
+};
+struct QuantileKeyHash {
+  size_t operator()(const QuantileKey& k) const {
+    return std::hash<double>()(k.p) * 1000003u ^ std::hash<double>()(k.dof);
+  }
+};
+
+}  // namespace
+
 double chi2Quantile(double p, double dof) {
   if (!(p > 0 && p < 1)) throw std::invalid_argument("chi2Quantile: p must be in (0,1)");
   if (!(dof > 0) || !std::isfinite(dof)) throw std::invalid_argument("chi2Quantile: dof must be finite and > 0");
+  thread_local std::unordered_map<QuantileKey, double, QuantileKeyHash> memo;
+  const QuantileKey key{p, dof};
+  const auto it = memo.find(key);
+  if (it != memo.end()) return it->second;
+  if (memo.size() >= 65536) memo.clear();  // bounded: a long-running nodelet sees ever new EDFs
+  const double x = chi2QuantileUncached(p, dof);
+  memo.emplace(key, x);
+  return x;
+}
+
+namespace {
+
+double chi2QuantileUncached(double p, double dof) {
   const double z = normalQuantile(p);
   // Wilson-Hilferty start
   const double h = 2.0 / (9.0 * dof);
@@ -95,6 +128,8 @@ double chi2Quantile(double p, double dof) {
   }
   return x;
 }
+
+}  // namespace
 
 // ------------------------------------------------------------------------------------------------ Greenhall EDF
 namespace {

@@ -153,15 +153,17 @@ std::vector<double> autocovariance(const std::vector<double>& x, int64_t max_lag
   mean /= n;
   int64_t nfft = 1;
   while (nfft < n + max_lag + 1) nfft *= 2;
-  std::vector<std::complex<double>> buf(nfft, 0.0), spec;
+  // Real-input transforms on the half spectrum: half the work and memory of a complex FFT of the same length.
+  std::vector<double> buf(nfft, 0.0);
   for (int64_t i = 0; i < n; ++i) buf[i] = x[i] - mean;
   Eigen::FFT<double> fft;
+  fft.SetFlag(Eigen::FFT<double>::HalfSpectrum);
+  std::vector<std::complex<double>> spec;
   fft.fwd(spec, buf);
   for (auto& s : spec) s = std::norm(s);
-  std::vector<std::complex<double>> back;
-  fft.inv(back, spec);
+  fft.inv(buf, spec, nfft);
   std::vector<double> acov(max_lag + 1);
-  for (int64_t k = 0; k <= max_lag; ++k) acov[k] = back[k].real() / n;
+  for (int64_t k = 0; k <= max_lag; ++k) acov[k] = buf[k] / n;
   return acov;
 }
 
@@ -328,13 +330,20 @@ Outliers detectOutliers(const std::vector<double>& x, double tau0, double z_min,
   const int64_t n = static_cast<int64_t>(x.size());
   if (n < 2 * half_window + 2) return out;
   std::vector<double> dev(n);
-  std::vector<double> win;
+  // Running median of the neighbours: a sorted copy of the window x[lo, hi) is updated by one insertion and one
+  // removal per step (O(window) moves instead of a selection per sample); the sample itself is skipped by rank.
+  std::vector<double> sorted;
+  int64_t lo = 0, hi = 0;
   for (int64_t i = 0; i < n; ++i) {
-    const int64_t lo = std::max<int64_t>(0, i - half_window), hi = std::min<int64_t>(n, i + half_window + 1);
-    win.clear();
-    for (int64_t j = lo; j < hi; ++j)
-      if (j != i) win.push_back(x[j]);
-    dev[i] = x[i] - median(win);
+    const int64_t new_lo = std::max<int64_t>(0, i - half_window), new_hi = std::min<int64_t>(n, i + half_window + 1);
+    for (; hi < new_hi; ++hi) sorted.insert(std::upper_bound(sorted.begin(), sorted.end(), x[hi]), x[hi]);
+    for (; lo < new_lo; ++lo) sorted.erase(std::lower_bound(sorted.begin(), sorted.end(), x[lo]));
+    const size_t self = static_cast<size_t>(std::lower_bound(sorted.begin(), sorted.end(), x[i]) - sorted.begin());
+    const size_t c = sorted.size() - 1;  // neighbours
+    auto rank = [&](size_t r) { return sorted[r < self ? r : r + 1]; };
+    const size_t k = c / 2;
+    const double med = c % 2 ? rank(k) : 0.5 * (rank(k - 1) + rank(k));
+    dev[i] = x[i] - med;
   }
   std::vector<double> ad(n);
   for (int64_t i = 0; i < n; ++i) ad[i] = std::fabs(dev[i]);
