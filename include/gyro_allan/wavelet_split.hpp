@@ -97,7 +97,10 @@ struct WaveletSplitResult {
 
 /// Runs the split on `rate` [rad/s] sampled every tau0 [s]. Throws std::invalid_argument on bad input (tau0 <= 0,
 /// non-finite samples, too short a record for the wavelet, unknown estimator names).
-WaveletSplitResult waveletSplit(const std::vector<double>& rate, double tau0, const WaveletSplitOptions& options = {});
+/// `raw_oadev`, when given, is computeDeviation("oadev", rate, Rate, tau0, options.deviation) computed by the caller
+/// (the pipeline already has it); it is used as is instead of being computed again.
+WaveletSplitResult waveletSplit(const std::vector<double>& rate, double tau0, const WaveletSplitOptions& options = {},
+                                const DeviationCurve* raw_oadev = nullptr);
 
 /// Expected mean square of the level-j DWT detail coefficient (orthonormal, interior) per unit coefficient squared
 /// of each IEEE term (Q^2 of white angle error, N^2, B^2 flicker, K^2): exact for Q and N (filter norms), by

@@ -62,6 +62,7 @@ AxisAnalysis analyzeAxis(const std::string& axis, const std::vector<std::vector<
   a.mean = static_cast<double>(sum / a.samples);
   a.duration_s = static_cast<double>(a.samples) * tau0;
   a.oadev = computeDeviation("oadev", segments, options.input, tau0, options.deviation);
+  const DeviationCurve raw_oadev = a.oadev;  // as computed, for the wavelet split's own fit error
   enforceRedderWithTau(&a.oadev, options.deviation.confidence);
   if (a.oadev.points.empty())
     throw std::invalid_argument("axis " + axis + ": record too short for any Allan-variance point");
@@ -94,7 +95,8 @@ AxisAnalysis analyzeAxis(const std::string& axis, const std::vector<std::vector<
     WaveletSplitOptions so = options.split;
     so.deviation = options.deviation;
     try {
-      a.split = waveletSplit(rate_seg, tau0, so);
+      // One gap-free segment: the split's curve of the raw samples is the one just computed (saves an oadev pass).
+      a.split = waveletSplit(rate_seg, tau0, so, a.segments == 1 ? &raw_oadev : nullptr);
       a.has_split = true;
       if (!a.split.ok) a.notes.push_back("wavelet split: " + a.split.message);
     } catch (const std::invalid_argument& e) {

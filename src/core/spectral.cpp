@@ -151,19 +151,36 @@ std::vector<double> autocovariance(const std::vector<double>& x, int64_t max_lag
   double mean = 0;
   for (double v : x) mean += v;
   mean /= n;
-  int64_t nfft = 1;
-  while (nfft < n + max_lag + 1) nfft *= 2;
-  // Real-input transforms on the half spectrum: half the work and memory of a complex FFT of the same length.
-  std::vector<double> buf(nfft, 0.0);
-  for (int64_t i = 0; i < n; ++i) buf[i] = x[i] - mean;
+  // Blocked FFT correlation: with X_b the spectrum of block b (length B, zero-padded to 2B), sum_i x[i] x[i+k] over
+  // block b and its successor is IFFT(conj(X_b) (X_b + (-1)^j X_{b+1}))[k] for k <= B (the successor shifted by B
+  // is the factor (-1)^j), and by linearity the spectra of all blocks add before one inverse transform. One real FFT
+  // of 2B points per block, cache-resident, instead of one transform of the whole record.
+  int64_t B = 256;
+  while (B < max_lag + 1) B *= 2;
+  const int64_t L = 2 * B, nb = (n + B - 1) / B, nh = B + 1;
   Eigen::FFT<double> fft;
   fft.SetFlag(Eigen::FFT<double>::HalfSpectrum);
-  std::vector<std::complex<double>> spec;
-  fft.fwd(spec, buf);
-  for (auto& s : spec) s = std::norm(s);
-  fft.inv(buf, spec, nfft);
-  std::vector<double> acov(max_lag + 1);
-  for (int64_t k = 0; k <= max_lag; ++k) acov[k] = buf[k] / n;
+  std::vector<double> seg(static_cast<size_t>(L), 0.0);
+  std::vector<std::complex<double>> cur, next, acc(static_cast<size_t>(nh), 0.0);
+  auto spectrumOf = [&](int64_t b, std::vector<std::complex<double>>* out) {
+    std::fill(seg.begin(), seg.end(), 0.0);
+    const int64_t lo = b * B, hi = std::min(n, lo + B);
+    for (int64_t i = lo; i < hi; ++i) seg[static_cast<size_t>(i - lo)] = x[static_cast<size_t>(i)] - mean;
+    fft.fwd(*out, seg);
+  };
+  spectrumOf(0, &cur);
+  for (int64_t b = 0; b < nb; ++b) {
+    if (b + 1 < nb) spectrumOf(b + 1, &next);
+    for (int64_t j = 0; j < nh; ++j) {
+      std::complex<double> y = cur[static_cast<size_t>(j)];
+      if (b + 1 < nb) y += (j % 2 ? -1.0 : 1.0) * next[static_cast<size_t>(j)];
+      acc[static_cast<size_t>(j)] += std::conj(cur[static_cast<size_t>(j)]) * y;
+    }
+    cur.swap(next);
+  }
+  fft.inv(seg, acc, L);
+  std::vector<double> acov(static_cast<size_t>(max_lag + 1));
+  for (int64_t k = 0; k <= max_lag; ++k) acov[static_cast<size_t>(k)] = seg[static_cast<size_t>(k)] / n;
   return acov;
 }
 

@@ -235,7 +235,8 @@ int automaticSplitLevel(const std::vector<double>& rate, double tau0, const Wave
   return std::max(1, std::min(jc - 1, J - 4));
 }
 
-WaveletSplitResult waveletSplit(const std::vector<double>& rate, double tau0, const WaveletSplitOptions& options) {
+WaveletSplitResult waveletSplit(const std::vector<double>& rate, double tau0, const WaveletSplitOptions& options,
+                                const DeviationCurve* raw_oadev) {
   if (!(tau0 > 0) || !std::isfinite(tau0)) throw std::invalid_argument("waveletSplit: tau0 must be > 0");
   for (double v : rate)
     if (!std::isfinite(v)) throw std::invalid_argument("waveletSplit: non-finite rate sample");
@@ -276,7 +277,8 @@ WaveletSplitResult waveletSplit(const std::vector<double>& rate, double tau0, co
   // 2. Allan deviation of each part, and of the input (for the combined fit error).
   r.denoised_curve = computeDeviation("oadev", split.denoised, InputKind::Rate, tau0, options.deviation);
   r.removed_curve = computeDeviation("oadev", split.removed, InputKind::Rate, tau0, options.deviation);
-  const DeviationCurve raw_curve = computeDeviation("oadev", rate, InputKind::Rate, tau0, options.deviation);
+  const DeviationCurve raw_curve =
+      raw_oadev ? *raw_oadev : computeDeviation("oadev", rate, InputKind::Rate, tau0, options.deviation);
 
   // 3. Allan fits. Removed part: 3Q^2/tau^2 + N_r^2/tau. Denoised part above 4 * 2^level * tau0 with a leak term.
   FitOptions rem_opt;

@@ -116,6 +116,7 @@ ImuSeries readImuBags(const std::vector<std::string>& paths, const BagReadOption
     total += v.size();
   }
   for (auto& x : s.gyro) x.reserve(total);
+  for (auto& x : s.accel) x.reserve(total);
   s.t.reserve(total);
   const bool show = options.progress && isatty(fileno(stderr));
   size_t done = 0, next_report = total / 50 + 1;

@@ -5,12 +5,16 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <exception>
+#include <functional>
 #include <iostream>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <console_bridge/console.h>
@@ -77,6 +81,7 @@ Output
   --no-plot              do not run scripts/plot_allan.py (DIR/allan.png and DIR/allan.svg; needs /usr/bin/python3
                          with matplotlib, a missing one is a one-line warning; environment GYRO_ALLAN_NO_PLOT=1
                          does the same, e.g. for test suites)
+  --jobs N               analyse up to N axes at once on N threads (default: one per core; 1 = sequential)
   --quiet                print nothing but errors
   -h, --help             this text
 
@@ -91,6 +96,7 @@ struct Args {
   std::string batch, kalibr_axis = "worst";
   bool accel = true, plot = true;
   double rate = 0, confidence = 0.683, gap_factor = 1.5, start = 0, duration = 0;
+  int jobs = 0;  // 0 = one per core
   bool bag_time = false, quiet = false, wavelet_split = true, model_check = true;
 };
 
@@ -141,6 +147,11 @@ Args parseArgs(int argc, char** argv) {
     else if (s == "--kalibr-axis") a.kalibr_axis = value();
     else if (s == "--no-accel") a.accel = false;
     else if (s == "--no-plot") a.plot = false;
+    else if (s == "--jobs" || s == "-j") {
+      const double j = parseDouble(s, value());
+      if (!(j >= 1 && j <= 256) || j != std::floor(j)) throw UsageError("--jobs must be an integer in 1..256");
+      a.jobs = static_cast<int>(j);
+    }
     else if (s == "--quiet" || s == "-q") a.quiet = true;
     else if (!s.empty() && s[0] == '-') throw UsageError("unknown option " + s + " (see --help)");
     else a.bags.push_back(s);
@@ -236,6 +247,30 @@ double removeMean(std::vector<std::vector<double>>* segments) {
   return mean;
 }
 
+/// Runs task(0..n-1) on up to `jobs` threads (0 = one per core); the first failing task in index order is rethrown,
+/// so errors read the same as with one thread.
+void parallelFor(size_t n, int jobs, const std::function<void(size_t)>& task) {
+  size_t workers = jobs > 0 ? static_cast<size_t>(jobs) : std::max(1u, std::thread::hardware_concurrency());
+  workers = std::min(workers, n);
+  std::vector<std::exception_ptr> errors(n);
+  std::atomic<size_t> next{0};
+  auto work = [&]() {
+    for (size_t i; (i = next++) < n;) {
+      try {
+        task(i);
+      } catch (...) {
+        errors[i] = std::current_exception();
+      }
+    }
+  };
+  std::vector<std::thread> pool;
+  for (size_t w = 1; w < workers; ++w) pool.emplace_back(work);
+  work();
+  for (auto& th : pool) th.join();
+  for (const auto& e : errors)
+    if (e) std::rethrow_exception(e);
+}
+
 int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
         std::vector<AxisAnalysis>* accel_out = nullptr) {
   AnalysisOptions opt;
@@ -320,6 +355,7 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
   std::vector<const std::vector<double>*> ptrs;
   for (const auto& v : values) ptrs.push_back(&v);
   SanitizedSeries ss = sanitize(t, ptrs, so);
+  for (auto& v : values) std::vector<double>().swap(v);  // the kept samples live on in ss
   meta.stamps = ss.report;
   meta.warnings = ss.report.warnings();
   if (ss.report.kept < 3 || !(ss.report.nominal_period_s > 0))
@@ -327,22 +363,11 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
                                 std::to_string(ss.report.input) + ")");
   const double tau0 = ss.report.nominal_period_s;
   const std::vector<std::vector<double>> temperature_segments = ss.interpolateSegments(temp_t, temp_v);
-  // A gyro at rest reads Earth rate plus bias: hundreds of deg/s means wrong units or a moving sensor.
-  std::vector<AxisAnalysis> results;
-  for (size_t a = 0; a < values.size(); ++a) {
-    if (opt.input == InputKind::Rate)
-      for (const auto& w : detectValueAnomalies(ss.v[a]).warnings("axis " + names[a])) meta.warnings.push_back(w);
-    results.push_back(analyzeAxis(names[a], ss.segmentValues(static_cast<int>(a)), tau0, opt,
-                                  temperature_segments.empty() ? nullptr : &temperature_segments));
-    if (opt.input == InputKind::Rate && std::fabs(results.back().mean) > 1.0)
-      meta.warnings.push_back("axis " + names[a] + ": mean rate " + std::to_string(results.back().mean) +
-                              " rad/s is not a gyro at rest (wrong units or a moving sensor?)");
-  }
   // Accelerometer: the same engine, joint fit only (the wavelet split and model check are tuned for gyros and
   // would double the run time); the mean (gravity) is removed first.
-  std::vector<AxisAnalysis> accel_results;
-  std::vector<double> accel_means;
   std::string accel_note;  // why the accelerometer was not analysed (stdout, not a warning: gyro-only IMUs are fine)
+  SanitizedSeries sa;
+  bool do_accel = false;
   if (args.accel && !accel[0].empty() && accel[0].size() == t.size()) {
     bool published = false;  // an IMU without accelerometer publishes zeros
     for (const auto& v : accel)
@@ -350,23 +375,58 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
     if (!published) {
       accel_note = "accelerometer: linear_acceleration is all zero (not published?): not analysed";
     } else {
-      AnalysisOptions ao = opt;
-      ao.wavelet_split = false;
-      ao.model_check = false;
-      ao.method = "joint_fit";
       std::vector<const std::vector<double>*> ap{&accel[0], &accel[1], &accel[2]};
       try {
-        SanitizedSeries sa = sanitize(t, ap, so);
-        for (int a = 0; a < 3; ++a) {
-          std::vector<std::vector<double>> segs = sa.segmentValues(a);
-          accel_means.push_back(removeMean(&segs));
-          accel_results.push_back(analyzeAxis("accel_" + names[static_cast<size_t>(a)], segs, tau0, ao));
-        }
+        sa = sanitize(t, ap, so);
+        do_accel = true;
       } catch (const std::exception& e) {
-        accel_results.clear();
         meta.warnings.push_back(std::string("accelerometer not analysed: ") + e.what());
       }
+      for (auto& v : accel) std::vector<double>().swap(v);  // sanitized copies are kept
     }
+  }
+  // Every axis (gyro x, y, z, then the accelerometer's) is an independent task; they run on --jobs threads.
+  const size_t n_gyro = names.size(), n_accel = do_accel ? 3 : 0;
+  std::vector<AxisAnalysis> results(n_gyro), accel_results(n_accel);
+  std::vector<double> accel_means(n_accel);
+  std::vector<std::vector<std::string>> axis_warnings(n_gyro);
+  std::vector<std::exception_ptr> accel_errors(n_accel);
+  AnalysisOptions ao = opt;
+  ao.wavelet_split = false;
+  ao.model_check = false;
+  ao.method = "joint_fit";
+  parallelFor(n_gyro + n_accel, args.jobs, [&](size_t k) {
+    if (k < n_gyro) {
+      const size_t a = k;
+      if (opt.input == InputKind::Rate) axis_warnings[a] = detectValueAnomalies(ss.v[a]).warnings("axis " + names[a]);
+      results[a] = analyzeAxis(names[a], ss.segmentValues(static_cast<int>(a)), tau0, opt,
+                               temperature_segments.empty() ? nullptr : &temperature_segments);
+      // A gyro at rest reads Earth rate plus bias: hundreds of deg/s means wrong units or a moving sensor.
+      if (opt.input == InputKind::Rate && std::fabs(results[a].mean) > 1.0)
+        axis_warnings[a].push_back("axis " + names[a] + ": mean rate " + std::to_string(results[a].mean) +
+                                   " rad/s is not a gyro at rest (wrong units or a moving sensor?)");
+    } else {
+      const int a = static_cast<int>(k - n_gyro);
+      try {
+        std::vector<std::vector<double>> segs = sa.segmentValues(a);
+        accel_means[static_cast<size_t>(a)] = removeMean(&segs);
+        accel_results[static_cast<size_t>(a)] = analyzeAxis("accel_" + names[static_cast<size_t>(a)], segs, tau0, ao);
+      } catch (...) {
+        accel_errors[static_cast<size_t>(a)] = std::current_exception();
+      }
+    }
+  });
+  for (const auto& w : axis_warnings) meta.warnings.insert(meta.warnings.end(), w.begin(), w.end());
+  for (const auto& e : accel_errors) {
+    if (!e) continue;
+    accel_results.clear();
+    accel_means.clear();
+    try {
+      std::rethrow_exception(e);
+    } catch (const std::exception& x) {
+      meta.warnings.push_back(std::string("accelerometer not analysed: ") + x.what());
+    }
+    break;
   }
   for (const auto& w : meta.warnings)
     if (!args.quiet) std::cerr << "analyze_bag: warning: " << w << "\n";
