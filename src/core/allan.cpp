@@ -137,9 +137,40 @@ struct SquareAccumulator {
   }
 };
 
+/// Sum of term(i)^2 over i = 0..count-1 with four independent double partial sums (no loop-carried add chain, so
+/// the overlapping estimators run at memory speed, ~3x faster than one accumulator), moved to long double every
+/// 1024 terms like SquareAccumulator.
+template <class Term>
+long double sumSquares(int64_t count, const Term& term) {
+  long double total = 0;
+  for (int64_t i = 0; i < count;) {
+    const int64_t end = std::min(count, i + 1024);
+    double a0 = 0, a1 = 0, a2 = 0, a3 = 0;
+    for (; i + 4 <= end; i += 4) {
+      const double d0 = term(i), d1 = term(i + 1), d2 = term(i + 2), d3 = term(i + 3);
+      a0 += d0 * d0;
+      a1 += d1 * d1;
+      a2 += d2 * d2;
+      a3 += d3 * d3;
+    }
+    for (; i < end; ++i) {
+      const double d = term(i);
+      a0 += d * d;
+    }
+    total += (a0 + a1) + (a2 + a3);
+  }
+  return total;
+}
+
 void sumsAdev(const double* x, int64_t n, int64_t m, bool overlapping, SegmentSums* s) {
   const int64_t stride = overlapping ? 1 : m;
   if (n < 2 * m + 1) return;
+  if (overlapping) {
+    const int64_t count = n - 2 * m;
+    s->sumsq += sumSquares(count, [x, m](int64_t i) { return x[i + 2 * m] - 2.0 * x[i + m] + x[i]; });
+    s->terms += count;
+    return;
+  }
   SquareAccumulator acc;
   int64_t terms = 0;
   for (int64_t i = 0; i + 2 * m < n; i += stride) {
@@ -153,6 +184,14 @@ void sumsAdev(const double* x, int64_t n, int64_t m, bool overlapping, SegmentSu
 void sumsHdev(const double* x, int64_t n, int64_t m, bool overlapping, SegmentSums* s) {
   const int64_t stride = overlapping ? 1 : m;
   if (n < 3 * m + 1) return;
+  if (overlapping) {
+    const int64_t count = n - 3 * m;
+    s->sumsq += sumSquares(count, [x, m](int64_t i) {
+      return x[i + 3 * m] - 3.0 * x[i + 2 * m] + 3.0 * x[i + m] - x[i];
+    });
+    s->terms += count;
+    return;
+  }
   SquareAccumulator acc;
   int64_t terms = 0;
   for (int64_t i = 0; i + 3 * m < n; i += stride) {
