@@ -79,15 +79,27 @@ std::vector<SpectralPeak> findPsdPeaks(const Psd& psd, double min_prominence_db,
   const int64_t hw = std::min<int64_t>(128, std::max<int64_t>(8, nb / 8));
   const int64_t first = 6;
   std::vector<double> floor(nb, 0.0);
+  // Floor = median of the bins k-h..k+h; the window moves by at most one bin at each end per step, so a sorted copy
+  // is kept up to date by binary-search insertion and removal instead of a selection per bin.
   std::vector<double> win;
+  int64_t wlo = 0, whi = 0;  // sorted holds psd.p[wlo, whi)
   for (int64_t k = first; k < nb; ++k) {
     const int64_t h = std::min({hw, k - 1, nb - 1 - k});
     if (h < 3) {
       floor[k] = 0;
       continue;
     }
-    win.assign(psd.p.begin() + (k - h), psd.p.begin() + (k + h + 1));
-    floor[k] = median(win);
+    const int64_t lo = k - h, hi = k + h + 1;
+    if (lo < wlo || lo > whi || hi < whi) {  // not a forward slide (first use): rebuild
+      win.assign(psd.p.begin() + lo, psd.p.begin() + hi);
+      std::sort(win.begin(), win.end());
+      wlo = lo;
+      whi = hi;
+    }
+    for (; whi < hi; ++whi) win.insert(std::upper_bound(win.begin(), win.end(), psd.p[whi]), psd.p[whi]);
+    for (; wlo < lo; ++wlo) win.erase(std::lower_bound(win.begin(), win.end(), psd.p[wlo]));
+    const size_t m = win.size() / 2;
+    floor[k] = win.size() % 2 ? win[m] : 0.5 * (win[m - 1] + win[m]);
   }
   const double ratio_min = std::pow(10.0, min_prominence_db / 10.0);
   std::vector<bool> taken(nb, false);
@@ -348,19 +360,29 @@ Outliers detectOutliers(const std::vector<double>& x, double tau0, double z_min,
   if (n < 2 * half_window + 2) return out;
   std::vector<double> dev(n);
   // Running median of the neighbours: a sorted copy of the window x[lo, hi) is updated by one insertion and one
-  // removal per step (O(window) moves instead of a selection per sample); the sample itself is skipped by rank.
+  // removal per step; positions come from branch-free counts (the window holds at most 2 half_window + 1 values),
+  // and the sample itself is skipped by rank.
   std::vector<double> sorted;
+  sorted.reserve(static_cast<size_t>(2 * half_window + 2));
+  auto countBelow = [&sorted](double v) {
+    size_t c = 0;
+    for (double e : sorted) c += e < v;
+    return c;
+  };
   int64_t lo = 0, hi = 0;
   for (int64_t i = 0; i < n; ++i) {
     const int64_t new_lo = std::max<int64_t>(0, i - half_window), new_hi = std::min<int64_t>(n, i + half_window + 1);
-    for (; hi < new_hi; ++hi) sorted.insert(std::upper_bound(sorted.begin(), sorted.end(), x[hi]), x[hi]);
-    for (; lo < new_lo; ++lo) sorted.erase(std::lower_bound(sorted.begin(), sorted.end(), x[lo]));
-    const size_t self = static_cast<size_t>(std::lower_bound(sorted.begin(), sorted.end(), x[i]) - sorted.begin());
+    for (; hi < new_hi; ++hi) {
+      const double v = x[static_cast<size_t>(hi)];
+      sorted.insert(sorted.begin() + static_cast<long>(countBelow(v)), v);
+    }
+    for (; lo < new_lo; ++lo) sorted.erase(sorted.begin() + static_cast<long>(countBelow(x[static_cast<size_t>(lo)])));
+    const size_t self = countBelow(x[static_cast<size_t>(i)]);
     const size_t c = sorted.size() - 1;  // neighbours
     auto rank = [&](size_t r) { return sorted[r < self ? r : r + 1]; };
     const size_t k = c / 2;
     const double med = c % 2 ? rank(k) : 0.5 * (rank(k - 1) + rank(k));
-    dev[i] = x[i] - med;
+    dev[static_cast<size_t>(i)] = x[static_cast<size_t>(i)] - med;
   }
   std::vector<double> ad(n);
   for (int64_t i = 0; i < n; ++i) ad[i] = std::fabs(dev[i]);
