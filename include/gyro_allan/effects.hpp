@@ -15,6 +15,13 @@ namespace gyro_allan {
 /// sin^4(pi f0 tau) / (m sin(pi f0 tau0))^2 (exact for sampled data, matters near Nyquist).
 double sinusoidAvar(double tau, double f0, double tau0 = 0);
 
+/// Any stationary component given by its one-sided PSD on equally spaced bins f_i = f_start + i df (f_i in
+/// (0, fs/2]): power[i] is the component's power in bin i (units^2, i.e. PSD x df), so a sinusoid of amplitude A is
+/// power A^2/2 in one bin. Returns the overlapping AVAR of the m = tau/tau0 sample means (tau0 > 0):
+/// sum_i power[i] 2 sin^4(pi f_i tau) / (m sin(pi f_i tau0))^2 (= sum_i 2 power[i] sinusoidAvar(tau, f_i, tau0)),
+/// evaluated with a rotation recurrence over the bins (no sin call per bin). Bins at multiples of fs contribute 0.
+double spectrumAvar(double tau, double f_start, double df, const std::vector<double>& power, double tau0);
+
 /// First-order Gauss-Markov (exponentially correlated, R(t) = sigma^2 exp(-|t|/tc)), per unit sigma^2:
 /// (tc/tau)^2 (2 tau/tc - 3 + 4 exp(-tau/tc) - exp(-2 tau/tc)). Rises as (2/3) tau/tc, peaks ~0.6 at tau ~ 1.9 tc,
 /// then falls as 2 tc/tau (white). With tau0 > 0 the exact sampled (AR(1), phi = exp(-tau0/tc)) form is used, with

@@ -28,6 +28,41 @@ double sinusoidAvar(double tau, double f0, double tau0) {
   return s * s * s * s / (x * x);
 }
 
+double spectrumAvar(double tau, double f_start, double df, const std::vector<double>& power, double tau0) {
+  requirePositive(tau, "spectrumAvar: tau");
+  requirePositive(tau0, "spectrumAvar: tau0");
+  requirePositive(df, "spectrumAvar: bin spacing");
+  if (!(f_start > 0) || !std::isfinite(f_start)) throw std::invalid_argument("spectrumAvar: f_start must be positive");
+  const double m = tau / tau0;
+  // sin(pi f_i tau) and sin(pi f_i tau0) by rotation: angle a + i d; renormalized every 64 steps.
+  const double d = M_PI * df * tau, d0 = M_PI * df * tau0;
+  const double cd = std::cos(d), sd = std::sin(d), cd0 = std::cos(d0), sd0 = std::sin(d0);
+  double s = std::sin(M_PI * f_start * tau), c = std::cos(M_PI * f_start * tau);
+  double s0 = std::sin(M_PI * f_start * tau0), c0 = std::cos(M_PI * f_start * tau0);
+  double acc = 0;
+  for (size_t i = 0; i < power.size(); ++i) {
+    if (i > 0 && i % 64 == 0) {
+      const double a = M_PI * (f_start + static_cast<double>(i) * df);
+      s = std::sin(a * tau);
+      c = std::cos(a * tau);
+      s0 = std::sin(a * tau0);
+      c0 = std::cos(a * tau0);
+    }
+    const double den = s0 * s0;
+    if (den > 1e-300) {
+      const double s2 = s * s;
+      acc += power[i] * s2 * s2 / den;
+    }
+    const double sn = s * cd + c * sd, cn = c * cd - s * sd;
+    const double sn0 = s0 * cd0 + c0 * sd0, cn0 = c0 * cd0 - s0 * sd0;
+    s = sn;
+    c = cn;
+    s0 = sn0;
+    c0 = cn0;
+  }
+  return 2.0 * acc / (m * m);
+}
+
 double gaussMarkovAvar(double tau, double tc, double tau0) {
   requirePositive(tau, "gaussMarkovAvar: tau");
   requirePositive(tc, "gaussMarkovAvar: correlation time");

@@ -227,6 +227,108 @@ Model fitModel(const DeviationCurve& curve, const Model& previous, const FitOpti
   return best;
 }
 
+// Excess of a broad PSD feature over a smooth floor, on consecutive bins of one PSD.
+struct FeatureExcess {
+  bool ok = false;
+  double f_start = 0, df = 0;
+  std::vector<double> power;  // (PSD - floor) x df per bin; tail bins may be slightly negative (estimation noise)
+  double total = 0;           // sum of power (units^2)
+  double lo = 0, hi = 0;      // extent of the feature, Hz
+  double floor_rho = 0;       // b / (2 a) of the floor a + b cos(2 pi f tau0): the lag-1 correlation of an MA(1) floor
+  int iterations = 0;
+};
+
+// Measures the whole feature around f0 (half-power width w), tails included. The floor under it is
+// a + b cos(2 pi f tau0), the PSD of white noise through a one-sample filter (MA(1)): on the ADIS16405 x/y axes it
+// matches the PSD from 1 Hz to Nyquist within 1 %; over a few widths it is simply a smooth 2-parameter trend. The
+// floor is fitted by least squares on flanks beyond the current extent (as wide as the feature, >= 4 w each side);
+// the extent then grows by blocks of max(8, w/2) bins while a block's mean stands above the floor by more than 3
+// sigma of a Welch block mean (relative sigma sqrt(1.5 / (segments x bins)), Hann: 1.5 bins per independent value);
+// repeated until the extent no longer changes. Starting extent f0 +- 2 w.
+FeatureExcess measureFeatureExcess(const Psd& ps, double f0, double w, double tau0) {
+  FeatureExcess fe;
+  const size_t nb = ps.f.size();
+  if (nb < 32 || !(ps.df > 0) || ps.segments < 1 || !(w > 0)) return fe;
+  const double df = ps.df;
+  const int block = std::max(8, static_cast<int>(std::lround(w / (2 * df))));
+  const double rel = std::sqrt(1.5 / (static_cast<double>(ps.segments) * block));
+  const double z_min = 3.0;
+  const size_t first = std::min<size_t>(6, nb - 1);  // as findPsdPeaks: the lowest bins carry flicker / drift
+  const double f_min = ps.f[first], f_max = ps.f[nb - 1];
+  double lo = std::max(f_min, f0 - 2 * w), hi = std::min(f_max, f0 + 2 * w);
+  double a = 0, b = 0;
+  auto floorAt = [&](double f) { return a + b * std::cos(2 * M_PI * f * tau0); };
+  for (int it = 0; it < 12; ++it) {
+    fe.iterations = it + 1;
+    const double L = std::max(4 * w, hi - lo);
+    double sw = 0, sx = 0, sxx = 0, sy = 0, sxy = 0;
+    for (size_t i = first; i < nb; ++i) {
+      const double f = ps.f[i];
+      if (!((f >= lo - L && f < lo) || (f > hi && f <= hi + L))) continue;
+      const double x = std::cos(2 * M_PI * f * tau0);
+      sw += 1;
+      sx += x;
+      sxx += x * x;
+      sy += ps.p[i];
+      sxy += x * ps.p[i];
+    }
+    if (sw < 8) return fe;
+    const double det = sw * sxx - sx * sx;
+    if (std::fabs(det) > 1e-12 * sw * sw) {
+      b = (sw * sxy - sx * sy) / det;
+      a = (sy - b * sx) / sw;
+    } else {  // flanks too narrow for a trend: flat floor
+      b = 0;
+      a = sy / sw;
+    }
+    // Block mean of the PSD over [f_a, f_b) relative to the floor; false when too few bins.
+    auto blockExcess = [&](double f_a, double f_b, double* excess) {
+      double sp = 0, sf = 0;
+      int cnt = 0;
+      for (size_t i = first; i < nb; ++i) {
+        if (ps.f[i] < f_a || ps.f[i] >= f_b) continue;
+        sp += ps.p[i];
+        sf += floorAt(ps.f[i]);
+        ++cnt;
+      }
+      if (cnt < block / 2 || !(sf > 0)) return false;
+      *excess = sp / sf - 1.0;
+      return true;
+    };
+    double nlo = lo, nhi = hi, ex = 0;
+    while (nlo > f_min && blockExcess(nlo - block * df, nlo, &ex) && ex > z_min * rel) nlo -= block * df;
+    while (nhi < f_max && blockExcess(nhi + df * 0.5, nhi + (block + 0.5) * df, &ex) && ex > z_min * rel)
+      nhi += block * df;
+    nlo = std::max(nlo, f_min);
+    nhi = std::min(nhi, f_max);
+    const bool same = std::fabs(nlo - lo) < 0.5 * df && std::fabs(nhi - hi) < 0.5 * df;
+    lo = nlo;
+    hi = nhi;
+    if (same) break;
+  }
+  size_t i0 = nb, i1 = 0;
+  for (size_t i = first; i < nb; ++i)
+    if (ps.f[i] >= lo - 0.5 * df && ps.f[i] <= hi + 0.5 * df) {
+      i0 = std::min(i0, i);
+      i1 = i;
+    }
+  if (i0 >= nb || i1 < i0) return fe;
+  for (size_t i = i0; i <= i1; ++i) {
+    const double fl = floorAt(ps.f[i]);
+    if (!(fl > 0)) return fe;  // the floor must be a power spectrum
+    fe.power.push_back((ps.p[i] - fl) * df);
+    fe.total += fe.power.back();
+  }
+  if (!(fe.total > 0)) return fe;
+  fe.f_start = ps.f[i0];
+  fe.df = df;
+  fe.lo = ps.f[i0];
+  fe.hi = ps.f[i1];
+  fe.floor_rho = a > 0 ? b / (2 * a) : 0.0;
+  fe.ok = true;
+  return fe;
+}
+
 // RMS of log10(measured/model ADEV) over a fixed set of points (the same for every model compared).
 double rmsLog10(const DeviationCurve& curve, const std::vector<double>& model, const std::vector<bool>& mask) {
   double s = 0;
@@ -417,71 +519,81 @@ ModelCheck checkModel(const std::vector<double>& rate, double tau0, const Deviat
       }
       if (!dup) kept.push_back(pk);
     }
-    // Broad features: re-measure the shape of the excess on a mid-resolution PSD (>= ~250 segments, so each bin
-    // is within ~6 %), floor = median of the flanks at 2-4 widths from the centre.
+    // Broad features: measure the whole excess, tails included, over an MA(1)-shaped floor on a mid-resolution PSD
+    // (>= ~250 segments, so each bin is within ~6 %; measureFeatureExcess).
     const int64_t mid = std::min<int64_t>(8192, pow2Below(n / 128));
     std::unique_ptr<Psd> mid_psd;
-    for (auto& pk : kept) {
+    std::vector<FeatureExcess> excess(kept.size());
+    for (size_t k = 0; k < kept.size(); ++k) {
+      const SpectralPeak& pk = kept[k];
       if (pk.bandwidth_hz <= 4 * pk.df || mid <= coarse || mid < 64) continue;
       if (!mid_psd) mid_psd.reset(new Psd(welchPsd(rate, fs, mid, 0.5)));
-      const Psd& ps = *mid_psd;
-      const double f0 = pk.frequency_hz, w = pk.bandwidth_hz;
-      std::vector<double> flank;
-      for (size_t i = 1; i < ps.f.size(); ++i) {
-        const double d = std::fabs(ps.f[i] - f0);
-        if (d >= 2 * w && d <= 4 * w) flank.push_back(ps.p[i]);
-      }
-      if (flank.size() < 8) continue;
-      std::nth_element(flank.begin(), flank.begin() + flank.size() / 2, flank.end());
-      const double floor = flank[flank.size() / 2];
-      std::vector<double> pf, pp;
-      double power = 0;
-      for (size_t i = 1; i < ps.f.size(); ++i) {
-        if (std::fabs(ps.f[i] - f0) >= 2 * w) continue;
-        const double e = ps.p[i] - floor;
-        if (e <= 0) continue;
-        pf.push_back(ps.f[i]);
-        pp.push_back(e * ps.df);
-        power += e * ps.df;
-      }
-      if (power > 0) {
-        pk.profile_f = pf;
-        pk.profile_p = pp;
-      }
+      excess[k] = measureFeatureExcess(*mid_psd, pk.frequency_hz, pk.bandwidth_hz, tau0);
     }
-    for (const auto& pk : kept) {
+    // The curve's taus, where the fits evaluate the bases: a narrowband basis is tabulated there once.
+    auto curve_taus = std::make_shared<std::vector<double>>();
+    for (const auto& p : curve.points) curve_taus->push_back(p.tau);
+    std::sort(curve_taus->begin(), curve_taus->end());
+    for (size_t k = 0; k < kept.size(); ++k) {
+      const SpectralPeak& pk = kept[k];
       if (pk.frequency_hz <= 0 || pk.frequency_hz >= fs / 2) continue;
       Candidate c;
       const bool line = pk.bandwidth_hz <= 4 * pk.df;
       c.type = line ? "sinusoid" : "narrowband";
       c.nature = line ? Nature::Deterministic : Nature::Narrowband;
-      char buf[256];
-      std::snprintf(buf, sizeof buf,
-                    "PSD peak %.1f dB above the local median at %.4g Hz (%s %.3g Hz, %lld-sample Welch segments, "
-                    "amplitude %.3g)",
-                    pk.prominence_db, pk.frequency_hz, line ? "bin width" : "half-power width",
-                    line ? pk.df : pk.bandwidth_hz, static_cast<long long>(std::llround(fs / pk.df)), pk.amplitude);
+      char buf[512];
+      int len = std::snprintf(buf, sizeof buf,
+                              "PSD peak %.1f dB above the local median at %.4g Hz (%s %.3g Hz, %lld-sample Welch "
+                              "segments, amplitude %.3g)",
+                              pk.prominence_db, pk.frequency_hz, line ? "bin width" : "half-power width",
+                              line ? pk.df : pk.bandwidth_hz, static_cast<long long>(std::llround(fs / pk.df)),
+                              pk.amplitude);
+      const FeatureExcess& fe = excess[k];
+      if (!line && fe.ok && len > 0 && len < static_cast<int>(sizeof buf))
+        std::snprintf(buf + len, sizeof buf - len,
+                      "; excess over an MA(1)-shaped floor (lag-1 %.3f) from %.4g to %.4g Hz: amplitude %.3g",
+                      fe.floor_rho, fe.lo, fe.hi, std::sqrt(2 * fe.total));
       c.evidence = buf;
       const double f0 = pk.frequency_hz;
       const double t0 = tau0;
       // A line keeps its PSD frequency; a narrowband oscillation keeps the measured shape of its PSD excess: its
-      // AVAR is the excess-weighted mean of the sinusoid term over the feature's bins (c = 2 x total power).
-      auto fr = std::make_shared<std::vector<double>>(pk.profile_f);
-      auto wt = std::make_shared<std::vector<double>>(pk.profile_p);
-      double wsum = 0;
-      for (double v : *wt) wsum += v;
-      for (auto& v : *wt) v /= (wsum > 0 ? wsum : 1.0);
-      c.make = [f0, line, t0, fr, wt](double) {
+      // AVAR is that of the excess spectrum (spectrumAvar) per unit c = 2 x total power, i.e. the excess-weighted
+      // mean of the sampled sinusoid term over the feature's bins. Tabulated at the curve's taus.
+      std::shared_ptr<std::vector<std::pair<double, double>>> table;
+      std::function<double(double)> shape;
+      if (!line && fe.ok) {
+        auto wts = std::make_shared<std::vector<double>>(fe.power);
+        for (auto& v : *wts) v /= fe.total;
+        const double fs0 = fe.f_start, dfe = fe.df;
+        shape = [wts, fs0, dfe, t0](double tau) { return 0.5 * spectrumAvar(tau, fs0, dfe, *wts, t0); };
+      } else if (!line && !pk.profile_f.empty()) {
+        // No mid-resolution PSD (short record): the peak finder's own profile of the feature.
+        auto fr = std::make_shared<std::vector<double>>(pk.profile_f);
+        auto wt = std::make_shared<std::vector<double>>(pk.profile_p);
+        double wsum = 0;
+        for (double v : *wt) wsum += v;
+        for (auto& v : *wt) v /= (wsum > 0 ? wsum : 1.0);
+        shape = [fr, wt, t0](double tau) {
+          double s = 0;
+          for (size_t i = 0; i < fr->size(); ++i) s += (*wt)[i] * sinusoidAvar(tau, (*fr)[i], t0);
+          return s;
+        };
+      }
+      if (shape) {
+        table = std::make_shared<std::vector<std::pair<double, double>>>();
+        for (double tau : *curve_taus) table->push_back({tau, shape(tau)});
+      }
+      c.make = [f0, t0, shape, table](double) {
         ExtraTerm e;
-        if (line || fr->empty()) {
+        if (!shape) {
           e.name = "sinusoid";
           e.basis = [f0, t0](double tau) { return sinusoidAvar(tau, f0, t0); };
         } else {
           e.name = "narrowband";
-          e.basis = [fr, wt, t0](double tau) {
-            double s = 0;
-            for (size_t i = 0; i < fr->size(); ++i) s += (*wt)[i] * sinusoidAvar(tau, (*fr)[i], t0);
-            return s;
+          e.basis = [shape, table](double tau) {
+            const auto it = std::lower_bound(table->begin(), table->end(), std::make_pair(tau, -HUGE_VAL));
+            if (it != table->end() && it->first == tau) return it->second;
+            return shape(tau);
           };
         }
         return e;
