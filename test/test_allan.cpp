@@ -94,6 +94,8 @@ TEST(AllanGrid, MaxFactorPerDeviation) {
   EXPECT_EQ(deviationMaxFactor("mdev", 1001), 333);
   EXPECT_EQ(deviationMaxFactor("tdev", 1001), 333);
   EXPECT_EQ(deviationMaxFactor("totdev", 1001), 1000);
+  EXPECT_EQ(deviationMaxFactor("mtotdev", 1001), 333);
+  EXPECT_EQ(deviationMaxFactor("ttotdev", 1001), 333);
   // the largest factor of each grid has at least one term
   const auto y = whiteNoise(1000, 1.0, 3);
   DeviationOptions opt;
@@ -166,7 +168,7 @@ TEST(AllanSegments, PoolsSumsAndNeverSpansAGap) {
         }
       EXPECT_EQ(p.n_terms, n) << name << " m=" << p.m;
       EXPECT_NEAR(p.var / (sum / n), 1.0, 1e-12) << name << " m=" << p.m;
-      if (name != "tdev") {
+      if (name != "tdev" && name != "ttotdev") {  // (time deviations are in phase units)
         EXPECT_LT(p.dev, 3.0) << name << " m=" << p.m;  // unit white noise: far below the step
       }
     }
@@ -218,6 +220,141 @@ TEST(AllanNumerics, LargeBiasTenMillionSamples) {
     const auto b = computeDeviationAt(name, b6, InputKind::Rate, 0.001, {1, 16, 1024}, opt);
     for (size_t i = 0; i < a.points.size(); ++i)
       EXPECT_NEAR(b.points[i].dev / a.points[i].dev, 1.0, 1e-9) << name << " m=" << a.points[i].m;
+  }
+}
+
+// ------------------------------------------------------------------------------------------------ mtotdev
+/// The 6m terms of one window of the modified total variance, written out as NIST SP1065 eq. (27) and its text
+/// describe it, independently of the library's prefix-sum form: the 3m-point subsequence sub = x(n..n+3m-1) has
+/// its linear frequency drift removed (difference of the averages of its first and last halves, floor(3m/2)
+/// points each, divided by the spacing of their centres, ceil(3m/2)) and is extended by uninverted even
+/// reflection to 9m points; the terms are its 6m second differences of m-point averages. Linear in x.
+std::vector<long double> mtotWindowTerms(const double* sub_x, int64_t m) {
+  const int64_t L = 3 * m, half = L / 2;
+  long double a1 = 0, a2 = 0;
+  for (int64_t k = 0; k < half; ++k) {
+    a1 += sub_x[k];
+    a2 += sub_x[L - half + k];
+  }
+  const long double drift = (a2 / half - a1 / half) / ((L + 1) / 2);
+  std::vector<long double> sub(L), ext(9 * m), terms(6 * m);
+  for (int64_t k = 0; k < L; ++k) sub[k] = sub_x[k] - drift * k;
+  for (int64_t k = 0; k < L; ++k) {
+    ext[L + k] = sub[k];              // the subsequence in the middle
+    ext[L - 1 - k] = sub[k];          // mirrored to the left (uninverted: x#(-1) = x(0))
+    ext[2 * L + k] = sub[L - 1 - k];  // mirrored to the right
+  }
+  for (int64_t i = 0; i < 6 * m; ++i) {
+    long double avg[3] = {0, 0, 0};
+    for (int b = 0; b < 3; ++b)
+      for (int64_t k = 0; k < m; ++k) avg[b] += ext[i + b * m + k] / m;
+    terms[i] = avg[2] - 2 * avg[1] + avg[0];
+  }
+  return terms;
+}
+
+/// MTOTVAR = 1 / (2 tau^2 (N - 3m + 1)) sum over windows of 1/(6m) sum of the squared terms (long double).
+long double mtotvarDirect(const std::vector<double>& x, int64_t m, double tau0) {
+  const int64_t N = static_cast<int64_t>(x.size()), L = 3 * m;
+  long double outer = 0;
+  int64_t count = 0;
+  for (int64_t n = 0; n + L <= N; ++n) {
+    long double inner = 0;
+    for (long double t : mtotWindowTerms(x.data() + n, m)) inner += t * t;
+    outer += inner / (6 * m);
+    ++count;
+  }
+  const long double tau = m * tau0;
+  return outer / (2 * tau * tau * count);
+}
+
+/// Exact expectation of MTOTVAR for unit white rate noise (tau0 = 1): each term is a linear form sum_k a_k x_k
+/// with sum a_k = 0, i.e. sum_k b_k y_k in the rates y_k = x_{k+1} - x_k with b_k = -(a_0 + ... + a_k), so its
+/// mean square is sum b_k^2. The weights a come from the transcription applied to unit vectors.
+double whiteFmMtotvar(int64_t m) {
+  const int64_t L = 3 * m;
+  std::vector<std::vector<long double>> a(L);  // a[t][j]: weight of x_t in term j
+  std::vector<double> e(L, 0.0);
+  for (int64_t t = 0; t < L; ++t) {
+    e[t] = 1;
+    a[t] = mtotWindowTerms(e.data(), m);
+    e[t] = 0;
+  }
+  long double sum = 0;
+  for (int64_t j = 0; j < 6 * m; ++j) {
+    long double b = 0;
+    for (int64_t k = 0; k + 1 < L; ++k) {
+      b -= a[k][j];
+      sum += b * b;
+    }
+  }
+  return static_cast<double>(sum / (6 * m) / (2.0L * m * m));
+}
+
+TEST(AllanMtotdev, MatchesDirectTranscriptionOfSp1065) {
+  // Random phase with a drift and a random walk (so detrending and the reflections matter), odd and even m up
+  // to the largest factor N/3; rate input of the same data must agree too.
+  std::mt19937_64 rng(77);
+  std::normal_distribution<double> nd(0.0, 1.0);
+  std::vector<double> x(301), y(300);
+  double walk = 0;
+  for (size_t i = 0; i < x.size(); ++i) {
+    walk += 0.3 * nd(rng);
+    x[i] = 5.0 + 0.02 * i + 1e-4 * i * i + walk + nd(rng);
+  }
+  const double tau0 = 0.5;
+  for (size_t i = 0; i < y.size(); ++i) y[i] = (x[i + 1] - x[i]) / tau0;
+  const std::vector<int64_t> ms = {1, 2, 3, 4, 5, 7, 8, 13, 16, 21, 32, 50, 64, 99, 100};
+  DeviationOptions opt;
+  opt.compute_edf = false;
+  const auto a = computeDeviationAt("mtotdev", x, InputKind::Angle, tau0, ms, opt);
+  const auto r = computeDeviationAt("mtotdev", y, InputKind::Rate, tau0, ms, opt);
+  const auto t = computeDeviationAt("ttotdev", x, InputKind::Angle, tau0, ms, opt);
+  ASSERT_EQ(a.points.size(), ms.size());
+  ASSERT_EQ(r.points.size(), ms.size());
+  ASSERT_EQ(t.points.size(), ms.size());
+  for (size_t i = 0; i < ms.size(); ++i) {
+    const int64_t m = ms[i];
+    const double want = static_cast<double>(mtotvarDirect(x, m, tau0));
+    EXPECT_NEAR(a.points[i].var / want, 1.0, 1e-12) << "m=" << m;
+    EXPECT_NEAR(r.points[i].var / want, 1.0, 1e-12) << "rate input, m=" << m;
+    EXPECT_EQ(a.points[i].n_terms, 301 - 3 * m + 1) << "m=" << m;
+    EXPECT_EQ(a.points[i].stride, 1);
+    // TTOTVAR = tau^2 / 3 MTOTVAR
+    const double tau = m * tau0;
+    EXPECT_NEAR(t.points[i].var / (tau * tau / 3 * want), 1.0, 1e-12) << "m=" << m;
+  }
+}
+
+TEST(AllanMtotdev, WhiteFmExpectationAndStride) {
+  // White FM: MTOTVAR is not MVAR (at m = 1 it is exactly MVAR / 2: the detrended 3-point window reflects into
+  // terms of half the energy; Stable32's PHASE.DAT table shows the same), so the truth is the exact expectation
+  // of the estimator (whiteFmMtotvar). 2e5 samples: 1/sqrt(2 edf) <= 1.7 % up to m = 64, so 5 % is ~3 sd.
+  const auto y = whiteNoise(200000, 1.0, 4242);
+  DeviationOptions opt;
+  opt.compute_edf = false;
+  opt.mtot_max_work = 0;  // exact
+  const std::vector<int64_t> ms = {1, 4, 16, 64};
+  const auto c = computeDeviationAt("mtotdev", y, InputKind::Rate, 1.0, ms, opt);
+  ASSERT_EQ(c.points.size(), ms.size());
+  EXPECT_NEAR(whiteFmMtotvar(1) / whiteFmMvar(1), 0.5, 1e-12);
+  for (size_t i = 0; i < ms.size(); ++i)
+    EXPECT_NEAR(c.points[i].dev / std::sqrt(whiteFmMtotvar(ms[i])), 1.0, 0.05) << "m=" << ms[i];
+  // Work budget: windows every s-th sample. s is far below m, so the strided mean stays within a small fraction
+  // of the estimate's own uncertainty (1.7 % at m = 64): required within 0.5 %.
+  DeviationOptions budget = opt;
+  budget.mtot_max_work = 1000000;
+  const auto s = computeDeviationAt("mtotdev", y, InputKind::Rate, 1.0, {16, 64}, budget);
+  ASSERT_EQ(s.points.size(), 2u);
+  for (size_t i = 0; i < 2; ++i) {
+    const int64_t m = s.points[i].m;
+    const int64_t work = (200001 - 3 * m + 1) * 3 * m;
+    EXPECT_EQ(s.points[i].stride, (work + 999999) / 1000000) << "m=" << m;
+    EXPECT_GT(s.points[i].stride, 1);
+    EXPECT_LT(s.points[i].stride, m);
+    EXPECT_EQ(s.points[i].n_terms, 200001 - 3 * m + 1);
+    const double exact = c.points[m == 16 ? 2 : 3].dev;
+    EXPECT_NEAR(s.points[i].dev / exact, 1.0, 0.005) << "m=" << m << " stride " << s.points[i].stride;
   }
 }
 
@@ -287,7 +424,9 @@ TEST(AllanEdf, ConfidenceIntervalCoverage) {
   // to test the EDF itself.
   const int runs = 400;
   const std::vector<int64_t> ms = {1, 8, 16, 64};
-  for (const std::string name : {"oadev", "mdev", "ohdev", "totdev"}) {
+  std::vector<double> mtot_truth;
+  for (int64_t m : ms) mtot_truth.push_back(std::sqrt(whiteFmMtotvar(m)));
+  for (const std::string name : {"oadev", "mdev", "ohdev", "totdev", "mtotdev"}) {
     std::vector<int> covered(ms.size(), 0);
     for (int r = 0; r < runs; ++r) {
       const auto y = whiteNoise(2000, 1.0, 1000 + r);
@@ -298,8 +437,11 @@ TEST(AllanEdf, ConfidenceIntervalCoverage) {
       fillConfidence(&c, opt.confidence);
       for (size_t i = 0; i < ms.size(); ++i) {
         const double m = static_cast<double>(ms[i]);
-        // true white-FM values (sigma = 1, tau0 = 1): avar = hvar = totvar = 1/m; mvar from its filter weights
-        const double truth = name == "mdev" ? std::sqrt(whiteFmMvar(ms[i])) : 1.0 / std::sqrt(m);
+        // true white-FM values (sigma = 1, tau0 = 1): avar = hvar = totvar = 1/m; mvar and mtotvar from their
+        // weights
+        const double truth = name == "mdev"      ? std::sqrt(whiteFmMvar(ms[i]))
+                             : name == "mtotdev" ? mtot_truth[i]
+                                                 : 1.0 / std::sqrt(m);
         covered[i] += c.points[i].dev_lo <= truth && truth <= c.points[i].dev_hi;
       }
     }
@@ -307,6 +449,7 @@ TEST(AllanEdf, ConfidenceIntervalCoverage) {
       const double frac = static_cast<double>(covered[i]) / runs;
       // binomial sd at 400 runs: 2.3 %; noise-ID errors (alpha) add a little
       EXPECT_NEAR(frac, 0.683, 0.08) << name << " m=" << ms[i];
+      RecordProperty(name + "_coverage_m" + std::to_string(ms[i]), std::to_string(frac));
     }
   }
 }

@@ -1,4 +1,4 @@
-// Allan-family deviations (allantools names: adev, oadev, mdev, hdev, ohdev, tdev, totdev) on tau grids, with EDF and CIs.
+// Allan-family deviations (allantools names: adev, oadev, mdev, hdev, ohdev, tdev, totdev, mtotdev, ttotdev) on tau grids, with EDF and CIs.
 #pragma once
 
 #include <cstdint>
@@ -38,6 +38,7 @@ struct DeviationPoint {
   int alpha = 0;        ///< power-law noise exponent used for the EDF (2 white PM ... -2 RW FM)
   double dev_lo = 0;    ///< lower confidence bound of dev (chi-squared, DeviationOptions::confidence)
   double dev_hi = 0;    ///< upper confidence bound of dev
+  int64_t stride = 1;   ///< mtotdev/ttotdev: window-start stride used (1 = exact; > 1 beyond the work budget)
 };
 
 struct DeviationCurve {
@@ -47,10 +48,22 @@ struct DeviationCurve {
   std::vector<DeviationPoint> points;
 };
 
+/// How chi-squared quantiles are taken for the confidence interval.
+///  Exact:    quantiles of chi2(edf) at (1 -+ confidence)/2 (default).
+///  Stable32: as Stable32 1.5x/1.60 prints them: exact for edf <= 100; for edf > 100 Wilson-Hilferty quantiles at a
+///            confidence truncated to two decimals (0.683 -> 0.68, i.e. p = 0.16 / 0.84), which reproduces its
+///            68.3 % bounds to printing precision (see docs/deviations.md).
+enum class ChiSquareConvention { Exact, Stable32 };
+
 struct DeviationOptions {
   TauGrid grid;
   double confidence = 0.683;  ///< two-sided confidence of dev_lo/dev_hi
   bool compute_edf = true;
+  ChiSquareConvention chi2 = ChiSquareConvention::Exact;
+  /// mtotdev/ttotdev cost work = 3m (N - 3m + 1) term evaluations per tau (N phase points of a segment). Above
+  /// this budget the window starts are taken every s-th sample, s = ceil(work / mtot_max_work) <= 3 m N /
+  /// mtot_max_work (below m/8 for N <= 1.1e7 at the default; DeviationPoint::stride reports s); 0 = always exact.
+  int64_t mtot_max_work = int64_t(1) << 28;
 };
 
 /// Names accepted by computeDeviation.
@@ -75,7 +88,7 @@ DeviationCurve computeDeviationAt(const std::string& name, const std::vector<std
                                   const DeviationOptions& options);
 
 /// Largest averaging factor with at least one term for deviation `name` on n_phase phase points
-/// (adev/oadev (n-1)/2, hdev/ohdev (n-1)/3, mdev/tdev n/3, totdev n-1).
+/// (adev/oadev (n-1)/2, hdev/ohdev (n-1)/3, mdev/tdev/mtotdev/ttotdev n/3, totdev n-1).
 int64_t deviationMaxFactor(const std::string& name, int64_t n_phase);
 
 /// Shorthand for the overlapping Allan deviation of rate samples.
@@ -87,7 +100,12 @@ DeviationCurve oadev(const std::vector<double>& rate, double tau0, const Deviati
 double deviationEdf(const std::string& name, int alpha, int64_t m, int64_t n_phase);
 
 /// Fills edf (given alpha per point) and dev_lo/dev_hi of every point at the given two-sided confidence.
-void fillConfidence(DeviationCurve* curve, double confidence);
+void fillConfidence(DeviationCurve* curve, double confidence,
+                    ChiSquareConvention convention = ChiSquareConvention::Exact);
+
+/// Two-sided interval multipliers (lo, hi) of a deviation with `edf` degrees of freedom: dev_lo = lo * dev,
+/// dev_hi = hi * dev. Returns false (and 0, 0) if edf is not positive and finite.
+bool deviationIntervalFactors(double edf, double confidence, ChiSquareConvention convention, double* lo, double* hi);
 
 /// Chi-squared quantile (inverse CDF) for dof > 0 (non-integer allowed), p in (0,1).
 double chi2Quantile(double p, double dof);

@@ -1,4 +1,4 @@
-// Allan-family deviations (adev, oadev, mdev, hdev, ohdev, tdev, totdev) on tau grids, pooled over gap-free segments.
+// Allan-family deviations (adev, oadev, mdev, hdev, ohdev, tdev, totdev, mtotdev, ttotdev) on tau grids, pooled over gap-free segments.
 #include "gyro_allan/allan.hpp"
 
 #include <algorithm>
@@ -243,6 +243,71 @@ void sumsTotdev(const double* x, int64_t n, int64_t m, SegmentSums* s) {
   s->terms += n - 2;
 }
 
+/// Modified total variance (NIST SP1065 sec. 5.2.13; Howe & Vernotte, PTTI 1999). For every window of L = 3m
+/// phase points y = x[i..i+L-1]: remove the frequency offset estimated from the means of the first and the last
+/// h = floor(L/2) points, whose centres are c = ceil(L/2) apart (slope = (mean_last - mean_first) / c); extend
+/// the window by uninverted even reflection at both ends to 9m points [rev y, y, rev y]; average the squares of
+/// its 6m second differences of m-point averages. The first 3m of them lie in [rev y, y] (left fold), the last
+/// 3m in [y, rev y], which is the left fold of rev y. Each fold sequence is a palindrome, so its terms satisfy
+/// Z_j = Z_{L-j}: only j = 0..floor(L/2) are evaluated (weights 1, 2, ..., 2, and 1 for j = L/2 when L is even).
+/// With q the prefix sums of the detrended window (q[k] = y[0] + ... + y[k-1], qt = q[L]) a left-fold term
+/// m z_j = B1 - 2 B2 + B3 is q[j] + 3q[m-j] - 3q[2m-j] + q[3m-j] for j <= m and q[j] - 3q[j-m] - 3q[2m-j] +
+/// q[3m-j] for m < j <= L/2; for rev y, q is replaced by qt - q[L-k]. sumsq accumulates sum over windows and
+/// the 6m terms of (m z_j)^2; the window count N - 3m + 1 is the Stable32 "#". Cost ~3L per window (offset,
+/// prefix, terms): O(N m) per tau. With max_work > 0 and L * windows > max_work, windows start every stride-th
+/// sample and the mean over them stands for the mean over all windows.
+void sumsMtotdev(const double* x, int64_t n, int64_t m, int64_t max_work, SegmentSums* s) {
+  const int64_t L = 3 * m;
+  if (n < L) return;
+  const int64_t nwin = n - L + 1;
+  int64_t stride = 1;
+  if (max_work > 0) {
+    const long double work = static_cast<long double>(nwin) * L;
+    if (work > max_work) stride = static_cast<int64_t>(std::ceil(work / max_work));
+  }
+  const int64_t h = L / 2, c = (L + 1) / 2;
+  const double inv_span = 1.0 / (static_cast<double>(h) * static_cast<double>(c));
+  const int64_t jmid = L / 2;           // last j evaluated (pairs with L - j)
+  const int64_t j1 = std::min(m, jmid);  // regime 1: j = 0..m
+  std::vector<double> q(static_cast<size_t>(L) + 1);
+  double* qp = q.data();
+  long double total = 0;
+  int64_t used = 0;
+  for (int64_t i = 0; i < nwin; i += stride) {
+    const double* w = x + i;
+    const double x0 = w[0];  // local origin: keeps the window's values small
+    double first = 0, last = 0;
+    for (int64_t k = 0; k < h; ++k) first += w[k] - x0;
+    for (int64_t k = L - h; k < L; ++k) last += w[k] - x0;
+    const double slope = (last - first) * inv_span;
+    double acc = 0;
+    qp[0] = 0;
+    for (int64_t k = 0; k < L; ++k) {
+      acc += (w[k] - x0) - slope * static_cast<double>(k);
+      qp[k + 1] = acc;
+    }
+    const double qt = acc;
+    double ends = 0, inner = 0;  // weight-1 and weight-2 terms
+    for (int64_t j = 0; j <= j1; ++j) {
+      const double zl = qp[j] + 3.0 * qp[m - j] - 3.0 * qp[2 * m - j] + qp[3 * m - j];
+      const double zr = 2.0 * qt - qp[3 * m - j] - 3.0 * qp[2 * m + j] + 3.0 * qp[m + j] - qp[j];
+      const double v = zl * zl + zr * zr;
+      if (j == 0 || 2 * j == L) ends += v; else inner += v;
+    }
+    for (int64_t j = j1 + 1; j <= jmid; ++j) {
+      const double zl = qp[j] - 3.0 * qp[j - m] - 3.0 * qp[2 * m - j] + qp[3 * m - j];
+      const double zr = -4.0 * qt - qp[3 * m - j] + 3.0 * qp[4 * m - j] + 3.0 * qp[m + j] - qp[j];
+      const double v = zl * zl + zr * zr;
+      if (2 * j == L) ends += v; else inner += v;
+    }
+    total += ends + 2.0 * inner;
+    ++used;
+  }
+  s->sumsq += used == nwin ? total : total * static_cast<long double>(nwin) / static_cast<long double>(used);
+  s->terms += nwin;
+  s->stride = std::max(s->stride, stride);
+}
+
 }  // namespace
 
 DevKind devKindFromName(const std::string& name) {
@@ -253,7 +318,10 @@ DevKind devKindFromName(const std::string& name) {
   if (name == "hdev") return DevKind::Hdev;
   if (name == "ohdev") return DevKind::Ohdev;
   if (name == "totdev") return DevKind::Totdev;
-  throw std::invalid_argument("unknown deviation '" + name + "' (expected adev, oadev, mdev, tdev, hdev, ohdev, totdev)");
+  if (name == "mtotdev") return DevKind::Mtotdev;
+  if (name == "ttotdev") return DevKind::Ttotdev;
+  throw std::invalid_argument("unknown deviation '" + name +
+                              "' (expected adev, oadev, mdev, tdev, hdev, ohdev, totdev, mtotdev, ttotdev)");
 }
 
 int64_t deviationMaxFactor(DevKind kind, int64_t n_phase) {
@@ -263,13 +331,15 @@ int64_t deviationMaxFactor(DevKind kind, int64_t n_phase) {
     case DevKind::Hdev:
     case DevKind::Ohdev: return (n_phase - 1) / 3;
     case DevKind::Mdev:
-    case DevKind::Tdev: return n_phase / 3;
+    case DevKind::Tdev:
+    case DevKind::Mtotdev:
+    case DevKind::Ttotdev: return n_phase / 3;
     case DevKind::Totdev: return n_phase - 1;
   }
   return 0;
 }
 
-void accumulateSegment(DevKind kind, const double* x, int64_t n, int64_t m, SegmentSums* s) {
+void accumulateSegment(DevKind kind, const double* x, int64_t n, int64_t m, SegmentSums* s, int64_t mtot_max_work) {
   switch (kind) {
     case DevKind::Adev: sumsAdev(x, n, m, false, s); break;
     case DevKind::Oadev: sumsAdev(x, n, m, true, s); break;
@@ -278,6 +348,8 @@ void accumulateSegment(DevKind kind, const double* x, int64_t n, int64_t m, Segm
     case DevKind::Mdev:
     case DevKind::Tdev: sumsMdev(x, n, m, s); break;
     case DevKind::Totdev: sumsTotdev(x, n, m, s); break;
+    case DevKind::Mtotdev:
+    case DevKind::Ttotdev: sumsMtotdev(x, n, m, mtot_max_work, s); break;
   }
 }
 
@@ -293,12 +365,16 @@ double varianceFromSums(DevKind kind, const SegmentSums& s, int64_t m, double ta
     case DevKind::Ohdev: return static_cast<double>(mean_sq / (6.0L * tau * tau));
     case DevKind::Mdev: return static_cast<double>(mean_sq / (2.0L * m * m * tau * tau));
     case DevKind::Tdev: return static_cast<double>(mean_sq / (6.0L * m * m));
+    // sumsq holds (m z)^2 over the 6m terms of each window (see sumsMtotdev): mtotvar = mean / (6m m^2 2 tau^2)
+    case DevKind::Mtotdev: return static_cast<double>(mean_sq / (12.0L * m * m * m * tau * tau));
+    case DevKind::Ttotdev: return static_cast<double>(mean_sq / (36.0L * m * m * m));
   }
   return 0;
 }
 
 const std::vector<std::string>& deviationNames() {
-  static const std::vector<std::string> names = {"adev", "oadev", "mdev", "tdev", "hdev", "ohdev", "totdev"};
+  static const std::vector<std::string> names = {"adev",  "oadev",  "mdev",    "tdev",   "hdev",
+                                                 "ohdev", "totdev", "mtotdev", "ttotdev"};
   return names;
 }
 
@@ -346,13 +422,14 @@ DeviationCurve computeOnSpans(DevKind dk, const std::string& name, const std::ve
     SegmentSums s;
     for (const auto& p : phases) {
       if (p.n < 2 || m > deviationMaxFactor(dk, p.n)) continue;
-      accumulateSegment(dk, p.x, p.n, m, &s);
+      accumulateSegment(dk, p.x, p.n, m, &s, options.mtot_max_work);
     }
     if (s.terms <= 0) continue;
     DeviationPoint pt;
     pt.m = m;
     pt.tau = static_cast<double>(m) * tau0;
     pt.n_terms = s.terms;
+    pt.stride = s.stride;
     pt.var = varianceFromSums(dk, s, m, tau0);
     pt.dev = std::sqrt(std::max(0.0, pt.var));
     if (options.compute_edf) {
@@ -361,7 +438,7 @@ DeviationCurve computeOnSpans(DevKind dk, const std::string& name, const std::ve
     }
     curve.points.push_back(pt);
   }
-  if (options.compute_edf) fillConfidence(&curve, options.confidence);
+  if (options.compute_edf) fillConfidence(&curve, options.confidence, options.chi2);
   return curve;
 }
 
@@ -369,6 +446,7 @@ void checkCommon(double tau0, const DeviationOptions& options) {
   if (!(tau0 > 0) || !std::isfinite(tau0)) throw std::invalid_argument("computeDeviation: tau0 must be finite and > 0");
   if (options.compute_edf && !(options.confidence > 0 && options.confidence < 1))
     throw std::invalid_argument("computeDeviation: confidence must be in (0,1)");
+  if (options.mtot_max_work < 0) throw std::invalid_argument("computeDeviation: mtot_max_work must be >= 0");
 }
 
 DeviationCurve computeImpl(const std::string& name, const std::vector<const std::vector<double>*>& segments,

@@ -1,5 +1,5 @@
 // Equivalent degrees of freedom (Greenhall-Riley 2003, SP1065 totvar), noise identification (lag-1 ACF) and
-// chi-squared confidence intervals of Allan-family deviations.
+// chi-squared confidence intervals of Allan-family deviations (exact, or as Stable32 prints them).
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -287,6 +287,12 @@ double edfForKind(DevKind kind, int alpha, int64_t m, int64_t n_phase) {
     case DevKind::Oadev: return greenhallEdf(alpha, 2, m, n_phase, true, false);
     case DevKind::Mdev:
     case DevKind::Tdev: return greenhallEdf(alpha, 2, m, n_phase, true, true);
+    // MTOTVAR: the Greenhall-Riley EDF of MVAR on the same data (its term count N - 3m + 1 is MVAR's). Stable32
+    // does the same at m <= 8 of PHASE.DAT (matched to 1e-4); at m >= 16 it prints larger EDFs that follow
+    // neither this nor SP1065 Table 8 (b T/tau - c), so MVAR's EDF is kept as the conservative choice (see
+    // docs/deviations.md).
+    case DevKind::Mtotdev:
+    case DevKind::Ttotdev: return greenhallEdf(alpha, 2, m, n_phase, true, true);
     case DevKind::Hdev: return greenhallEdf(alpha, 3, m, n_phase, false, false);
     case DevKind::Ohdev: return greenhallEdf(alpha, 3, m, n_phase, true, false);
     case DevKind::Totdev: {
@@ -317,7 +323,9 @@ int64_t equivalentPhasePoints(DevKind kind, int64_t n, int64_t m) {
     case DevKind::Adev: return (n + 1) * m + 1;
     case DevKind::Oadev: return n + 2 * m;
     case DevKind::Mdev:
-    case DevKind::Tdev: return n + 3 * m - 1;
+    case DevKind::Tdev:
+    case DevKind::Mtotdev:
+    case DevKind::Ttotdev: return n + 3 * m - 1;
     case DevKind::Hdev: return (n + 2) * m + 1;
     case DevKind::Ohdev: return n + 3 * m;
     case DevKind::Totdev: return n + 2;
@@ -331,18 +339,43 @@ double deviationEdf(const std::string& name, int alpha, int64_t m, int64_t n_pha
   return edfForKind(kind, alpha, m, n_phase);
 }
 
-void fillConfidence(DeviationCurve* curve, double confidence) {
+bool deviationIntervalFactors(double edf, double confidence, ChiSquareConvention convention, double* lo, double* hi) {
+  if (!lo || !hi) throw std::invalid_argument("deviationIntervalFactors: null output");
+  if (!(confidence > 0 && confidence < 1))
+    throw std::invalid_argument("deviationIntervalFactors: confidence must be in (0,1)");
+  *lo = *hi = 0;
+  if (!(edf > 0) || !std::isfinite(edf)) return false;
+  double qhi, qlo;
+  if (convention == ChiSquareConvention::Stable32 && edf > 100) {
+    // Stable32 above 100 degrees of freedom: Wilson-Hilferty at the confidence truncated to two decimals
+    // (0.683 -> 0.68). Reproduces every printed 68.3 % bound of the PHASE.DAT and OCXO octave tables with
+    // EDF > 100 to <= 6.1e-5 relative (exact quantiles at 0.683 are off by up to 4e-4 there).
+    const double c2 = std::floor(confidence * 100 + 1e-9) / 100;
+    if (!(c2 > 0)) throw std::invalid_argument("deviationIntervalFactors: Stable32 convention needs confidence >= 0.01");
+    const double z = normalQuantile(0.5 * (1 + c2));
+    const double h = 2.0 / (9.0 * edf);
+    qhi = edf * std::pow(1.0 - h + z * std::sqrt(h), 3);
+    qlo = edf * std::pow(std::max(0.0, 1.0 - h - z * std::sqrt(h)), 3);
+  } else {
+    qhi = chi2Quantile(0.5 * (1 + confidence), edf);
+    qlo = chi2Quantile(0.5 * (1 - confidence), edf);
+  }
+  *lo = std::sqrt(edf / qhi);
+  *hi = std::sqrt(edf / qlo);
+  return true;
+}
+
+void fillConfidence(DeviationCurve* curve, double confidence, ChiSquareConvention convention) {
   if (!curve) throw std::invalid_argument("fillConfidence: null curve");
   if (!(confidence > 0 && confidence < 1)) throw std::invalid_argument("fillConfidence: confidence must be in (0,1)");
   const DevKind kind = devKindFromName(curve->name);
   for (auto& p : curve->points) {
     const int64_t n_eq = equivalentPhasePoints(kind, p.n_terms, p.m);
     p.edf = edfForKind(kind, std::max(-2, std::min(2, p.alpha)), p.m, n_eq);
-    if (p.edf > 0 && std::isfinite(p.edf)) {
-      const double qhi = chi2Quantile(0.5 * (1 + confidence), p.edf);
-      const double qlo = chi2Quantile(0.5 * (1 - confidence), p.edf);
-      p.dev_lo = p.dev * std::sqrt(p.edf / qhi);
-      p.dev_hi = p.dev * std::sqrt(p.edf / qlo);
+    double lo = 0, hi = 0;
+    if (deviationIntervalFactors(p.edf, confidence, convention, &lo, &hi)) {
+      p.dev_lo = p.dev * lo;
+      p.dev_hi = p.dev * hi;
     } else {
       p.edf = 0;
       p.dev_lo = p.dev_hi = 0;
