@@ -24,6 +24,9 @@ struct AnalysisOptions {
   WaveletSplitOptions split;
   bool model_check = true;                          ///< run the closed loop (residual -> effect -> refit)
   ModelCheckOptions check;
+  /// Run the wavelet split on a second thread while the model check runs (they only read the samples); the result
+  /// is the same either way.
+  bool concurrent_stages = false;
 };
 
 struct AxisAnalysis {

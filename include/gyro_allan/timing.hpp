@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "gyro_allan/compact_series.hpp"
+
 namespace gyro_allan {
 
 struct StampReport {
@@ -41,6 +43,8 @@ struct SanitizedSeries {
   StampReport report;
   /// Values of one axis split into segments (for computeDeviation over segments).
   std::vector<std::vector<double>> segmentValues(int axis) const;
+  /// The same, moving the values out (v[axis] is empty afterwards): no second copy of a long record.
+  std::vector<std::vector<double>> takeSegmentValues(int axis);
   /// A side series (e.g. temperature at 1 Hz: stamps ts, values vs, same time origin) linearly interpolated onto the
   /// kept stamps, split like the segments; held constant beyond its ends. Empty when it has no finite point.
   std::vector<std::vector<double>> interpolateSegments(const std::vector<double>& ts, const std::vector<double>& vs) const;
@@ -68,6 +72,9 @@ ValueAnomalies detectValueAnomalies(const std::vector<double>& v, double min_rat
 
 /// Sanitizes a multi-axis series (axes = 1..3 vectors of the same length as t).
 SanitizedSeries sanitize(const std::vector<double>& t, const std::vector<const std::vector<double>*>& axes,
+                         const SanitizeOptions& options = {});
+/// The same for compactly stored axes (the bag reader's); the kept values come out as doubles.
+SanitizedSeries sanitizeCompact(const std::vector<double>& t, const std::vector<const CompactSeries*>& axes,
                          const SanitizeOptions& options = {});
 
 }  // namespace gyro_allan

@@ -2,7 +2,9 @@
 #include "gyro_allan/analysis.hpp"
 
 #include <cmath>
+#include <exception>
 #include <stdexcept>
+#include <thread>
 
 namespace gyro_allan {
 
@@ -91,18 +93,27 @@ AxisAnalysis analyzeAxis(const std::string& axis, const std::vector<std::vector<
   const bool rate_input = options.input == InputKind::Rate;
   if (!rate_input && (options.wavelet_split || options.model_check))
     a.notes.push_back("wavelet split and model check need rate samples: skipped for angle input");
-  if (rate_input && options.wavelet_split) {
+  std::exception_ptr split_error;
+  auto runSplit = [&]() {
     WaveletSplitOptions so = options.split;
     so.deviation = options.deviation;
     try {
       // One gap-free segment: the split's curve of the raw samples is the one just computed (saves an oadev pass).
       a.split = waveletSplit(rate_seg, tau0, so, a.segments == 1 ? &raw_oadev : nullptr);
       a.has_split = true;
-      if (!a.split.ok) a.notes.push_back("wavelet split: " + a.split.message);
     } catch (const std::invalid_argument& e) {
-      a.notes.push_back(std::string("wavelet split skipped: ") + e.what());
+      a.split.message = e.what();
+    } catch (...) {
+      split_error = std::current_exception();  // rethrown after the join
     }
-  }
+  };
+  std::thread split_thread;
+  const bool run_split = rate_input && options.wavelet_split;
+  if (run_split && options.concurrent_stages && options.model_check) split_thread = std::thread(runSplit);
+  else if (run_split) runSplit();
+  // The model check writes only a.check / a.has_check; the split thread only a.split / a.has_split; notes are
+  // added after the join, in a fixed order.
+  std::string check_note;
   if (rate_input && options.model_check && a.fit.ok) {
     ModelCheckOptions co = options.check;
     co.fit = options.fit;
@@ -112,11 +123,21 @@ AxisAnalysis analyzeAxis(const std::string& axis, const std::vector<std::vector<
     try {
       a.check = checkModel(rate_seg, tau0, a.oadev, a.fit, co, temp);
       a.has_check = a.check.ok;
-      if (!a.check.ok) a.notes.push_back("model check: " + a.check.message);
+      if (!a.check.ok) check_note = "model check: " + a.check.message;
     } catch (const std::invalid_argument& e) {
-      a.notes.push_back(std::string("model check skipped: ") + e.what());
+      check_note = std::string("model check skipped: ") + e.what();
+    } catch (...) {
+      if (split_thread.joinable()) split_thread.join();
+      throw;
     }
   }
+  if (split_thread.joinable()) split_thread.join();
+  if (split_error) std::rethrow_exception(split_error);
+  if (run_split) {
+    if (!a.has_split) a.notes.push_back("wavelet split skipped: " + a.split.message);
+    else if (!a.split.ok) a.notes.push_back("wavelet split: " + a.split.message);
+  }
+  if (!check_note.empty()) a.notes.push_back(check_note);
 
   // The answer.
   const bool split_ok = a.has_split && a.split.ok;

@@ -42,6 +42,18 @@ std::vector<std::vector<double>> SanitizedSeries::segmentValues(int axis) const 
   return out;
 }
 
+std::vector<std::vector<double>> SanitizedSeries::takeSegmentValues(int axis) {
+  auto& src = v[static_cast<size_t>(axis)];
+  std::vector<std::vector<double>> out;
+  if (segments.size() == 1 && segments[0].begin == 0 && segments[0].end == src.size()) {
+    out.push_back(std::move(src));
+  } else {
+    out = segmentValues(axis);
+  }
+  std::vector<double>().swap(src);
+  return out;
+}
+
 std::vector<std::vector<double>> SanitizedSeries::interpolateSegments(const std::vector<double>& ts,
                                                                       const std::vector<double>& vs) const {
   std::vector<std::pair<double, double>> pts;
@@ -112,8 +124,12 @@ std::vector<std::string> ValueAnomalies::warnings(const std::string& what) const
   return w;
 }
 
-SanitizedSeries sanitize(const std::vector<double>& t, const std::vector<const std::vector<double>*>& axes,
-                         const SanitizeOptions& options) {
+namespace {
+
+/// sanitize() for any axis container with size() and operator[] (std::vector<double>, CompactSeries).
+template <class Axis>
+SanitizedSeries sanitizeImpl(const std::vector<double>& t, const std::vector<const Axis*>& axes,
+                             const SanitizeOptions& options) {
   if (axes.empty() || axes.size() > 3) throw std::invalid_argument("sanitize: 1 to 3 axes expected");
   for (const auto* a : axes)
     if (!a || a->size() != t.size()) throw std::invalid_argument("sanitize: axis length differs from stamp count");
@@ -123,7 +139,8 @@ SanitizedSeries sanitize(const std::vector<double>& t, const std::vector<const s
   rep.input = static_cast<int64_t>(t.size());
 
   // Pass 1: drop non-finite values and zero or non-finite stamps.
-  std::vector<size_t> idx;
+  if (t.size() >= (size_t(1) << 32)) throw std::invalid_argument("sanitize: more than 2^32 samples");
+  std::vector<uint32_t> idx;  // 4-byte indices: this runs on whole long records
   idx.reserve(t.size());
   for (size_t i = 0; i < t.size(); ++i) {
     bool finite = std::isfinite(t[i]);
@@ -136,21 +153,21 @@ SanitizedSeries sanitize(const std::vector<double>& t, const std::vector<const s
       ++rep.zero_stamp;
       continue;
     }
-    idx.push_back(i);
+    idx.push_back(static_cast<uint32_t>(i));
   }
   // A single stamp ahead of both neighbours (t[k] > t[k+1] while the previous kept stamp < t[k+1]) would otherwise be
   // kept and make every later sample "out of order" until time catches up with it: drop the glitch itself instead.
   {
-    std::vector<size_t> clean;
-    clean.reserve(idx.size());
+    size_t kept = 0;  // compacted in place: idx[0, kept) are the kept ones (kept <= k, so idx[k + 1] is untouched)
     for (size_t k = 0; k < idx.size(); ++k) {
-      if (k + 1 < idx.size() && t[idx[k]] > t[idx[k + 1]] && (clean.empty() || t[clean.back()] < t[idx[k + 1]])) {
+      if (k + 1 < idx.size() && t[idx[k]] > t[idx[k + 1]] && (kept == 0 || t[idx[kept - 1]] < t[idx[k + 1]])) {
         ++rep.out_of_order;
         continue;
       }
-      clean.push_back(idx[k]);
+      idx[kept++] = idx[k];
     }
-    idx.swap(clean);
+    idx.resize(kept);
+    idx.shrink_to_fit();
   }
   // Nominal period: the median of positive consecutive intervals (robust to a few bad stamps).
   double period = options.nominal_rate_hz > 0 ? 1.0 / options.nominal_rate_hz : 0.0;
@@ -161,9 +178,11 @@ SanitizedSeries sanitize(const std::vector<double>& t, const std::vector<const s
       const double dt = t[idx[k]] - t[idx[k - 1]];
       if (dt > 0) d.push_back(dt);
     }
-    period = median(d);
+    period = median(std::move(d));  // selection in place: no second copy of a long record
   }
   // Pass 2: keep strictly increasing stamps at least half a period apart; split at gaps.
+  out.t.reserve(idx.size());
+  for (size_t a = 0; a < axes.size(); ++a) out.v[a].reserve(idx.size());
   bool have_prev = false;
   double prev = 0;
   size_t seg_start = 0;
@@ -184,7 +203,15 @@ SanitizedSeries sanitize(const std::vector<double>& t, const std::vector<const s
     }
     seg_start = out.t.size();
   };
-  std::vector<double> intervals_in_seg;
+  // Median interval of the run being closed (the intervals between its consecutive kept stamps), computed when it
+  // ends from the kept stamps themselves.
+  auto segmentPeriod = [&]() {
+    const size_t n = out.t.size();
+    if (n < seg_start + 2) return;
+    std::vector<double> d(n - seg_start - 1);
+    for (size_t j = seg_start + 1; j < n; ++j) d[j - seg_start - 1] = out.t[j] - out.t[j - 1];
+    seg_periods.push_back(median(std::move(d)));
+  };
   for (size_t k = 0; k < idx.size(); ++k) {
     const size_t i = idx[k];
     const double ti = t[i];
@@ -201,11 +228,8 @@ SanitizedSeries sanitize(const std::vector<double>& t, const std::vector<const s
       if (period > 0 && dt > options.gap_factor * period) {
         ++rep.gaps;
         rep.gap_time_s += dt - period;
-        if (!intervals_in_seg.empty()) seg_periods.push_back(median(intervals_in_seg));
-        intervals_in_seg.clear();
+        segmentPeriod();
         closeSegment(out.t.size());
-      } else {
-        intervals_in_seg.push_back(dt);
       }
     }
     out.t.push_back(ti);
@@ -213,8 +237,9 @@ SanitizedSeries sanitize(const std::vector<double>& t, const std::vector<const s
     prev = ti;
     have_prev = true;
   }
-  if (!intervals_in_seg.empty()) seg_periods.push_back(median(intervals_in_seg));
+  segmentPeriod();
   closeSegment(out.t.size());
+  std::vector<uint32_t>().swap(idx);
   rep.kept = static_cast<int64_t>(out.t.size());
   rep.nominal_period_s = period;
   rep.rate_hz = period > 0 ? 1.0 / period : 0.0;
@@ -222,14 +247,20 @@ SanitizedSeries sanitize(const std::vector<double>& t, const std::vector<const s
   // A rate change without a gap (e.g. 100 -> 125 Hz) stays inside one segment: compare the median interval of
   // consecutive blocks (20 per record, at least 16 intervals each) with the nominal period.
   {
-    std::vector<double> d;
+    // The intervals of all segments in order, taken block by block (one block in memory at a time).
+    size_t total = 0;
+    for (const auto& seg : out.segments) total += seg.size() - 1;
+    const size_t block = std::max<size_t>(16, total / 20);
+    std::vector<double> chunk;
+    chunk.reserve(block);
     for (const auto& seg : out.segments)
-      for (size_t i = seg.begin + 1; i < seg.end; ++i) d.push_back(out.t[i] - out.t[i - 1]);
-    const size_t block = std::max<size_t>(16, d.size() / 20);
-    for (size_t b = 0; b + block <= d.size(); b += block) {
-      std::vector<double> chunk(d.begin() + static_cast<long>(b), d.begin() + static_cast<long>(b + block));
-      rep.max_rate_deviation = std::max(rep.max_rate_deviation, std::fabs(median(chunk) / period - 1.0));
-    }
+      for (size_t i = seg.begin + 1; i < seg.end; ++i) {
+        chunk.push_back(out.t[i] - out.t[i - 1]);
+        if (chunk.size() == block) {
+          rep.max_rate_deviation = std::max(rep.max_rate_deviation, std::fabs(median(chunk) / period - 1.0));
+          chunk.clear();
+        }
+      }
   }
   rep.rate_changed = rep.max_rate_deviation > 0.05;
   if (!out.t.empty()) {
@@ -237,6 +268,18 @@ SanitizedSeries sanitize(const std::vector<double>& t, const std::vector<const s
     rep.last_stamp = out.t.back();
   }
   return out;
+}
+
+}  // namespace
+
+SanitizedSeries sanitize(const std::vector<double>& t, const std::vector<const std::vector<double>*>& axes,
+                         const SanitizeOptions& options) {
+  return sanitizeImpl(t, axes, options);
+}
+
+SanitizedSeries sanitizeCompact(const std::vector<double>& t, const std::vector<const CompactSeries*>& axes,
+                         const SanitizeOptions& options) {
+  return sanitizeImpl(t, axes, options);
 }
 
 }  // namespace gyro_allan

@@ -35,6 +35,13 @@ double relativeStamp(const ros::Time& stamp, ros::Time* origin) {
   return (stamp - *origin).toSec();
 }
 
+/// The same in integer nanoseconds (0 = zero stamp); CompactStamps::toSeconds gives back relativeStamp's value.
+int64_t relativeStampNs(const ros::Time& stamp, ros::Time* origin) {
+  if (stamp.isZero()) return 0;
+  if (origin->isZero()) *origin = stamp - ros::Duration(1.0);
+  return (stamp - *origin).toNSec();
+}
+
 struct OpenBag {
   std::string path;
   std::unique_ptr<rosbag::Bag> bag;
@@ -140,14 +147,15 @@ ImuSeries readImuBags(const std::vector<std::string>& paths, const BagReadOption
         if (!imu) throw InputError("topic '" + topic + "' holds a message that is not " + kImuType);
         ++done;
         const ros::Time stamp = options.use_bag_time ? m.getTime() : imu->header.stamp;
-        const double t = relativeStamp(stamp, &t_origin);
+        const int64_t t_ns = relativeStampNs(stamp, &t_origin);
+        const double t = t_ns == 0 ? 0.0 : (stamp - t_origin).toSec();  // as CompactStamps::toSeconds gives it
         if (t_first < 0 && t != 0) t_first = t;
         if (options.start_s > 0 || options.duration_s > 0) {
           if (t_first >= 0 && t < t_first + options.start_s) continue;
           if (options.duration_s > 0 && t_first >= 0 && t >= t_first + options.start_s + options.duration_s) continue;
         }
         if (s.frame_id.empty()) s.frame_id = imu->header.frame_id;
-        s.t.push_back(t);
+        s.t.push_back(t_ns);
         s.gyro[0].push_back(imu->angular_velocity.x);
         s.gyro[1].push_back(imu->angular_velocity.y);
         s.gyro[2].push_back(imu->angular_velocity.z);

@@ -1,11 +1,15 @@
 // analyze_bag: offline gyro noise analysis of rosbags (sensor_msgs/Imu) or CSV series -> report.yaml, allan.csv, summary.
 #include <dirent.h>
+#ifdef __GLIBC__
+#include <malloc.h>
+#endif
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -20,6 +24,7 @@
 #include <console_bridge/console.h>
 
 #include "gyro_allan/analysis.hpp"
+#include "gyro_allan/compact_series.hpp"
 #include "gyro_allan/csv_input.hpp"
 #include "gyro_allan/io/bag_input.hpp"
 #include "gyro_allan/io/report.hpp"
@@ -247,6 +252,39 @@ double removeMean(std::vector<std::vector<double>>* segments) {
   return mean;
 }
 
+/// Gives freed heap pages back to the system between stages (large arrays freed inside the heap would otherwise
+/// stay resident until the heap top is free).
+void releaseFreed() {
+#ifdef __GLIBC__
+  malloc_trim(0);
+#endif
+}
+
+/// GYRO_ALLAN_PROFILE=1: one stderr line per stage with wall time since start, resident and peak memory (for
+/// bench/whole_tool.sh and docs/performance.md).
+void profileStage(const char* stage) {
+  static const bool on = [] {
+    const char* e = std::getenv("GYRO_ALLAN_PROFILE");
+    return e && std::string(e) == "1";
+  }();
+  if (!on) return;
+  static const auto t0 = std::chrono::steady_clock::now();
+  const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  long rss = 0, hwm = 0;
+  if (FILE* f = std::fopen("/proc/self/status", "r")) {
+    char line[256];
+    while (std::fgets(line, sizeof line, f)) {
+      std::sscanf(line, "VmRSS: %ld", &rss);
+      std::sscanf(line, "VmHWM: %ld", &hwm);
+    }
+    std::fclose(f);
+  }
+  std::fprintf(stderr, "profile: %-28s %7.3f s  rss %6.1f MB  peak %6.1f MB\n", stage, t, rss / 1024.0, hwm / 1024.0);
+#ifdef __GLIBC__
+  if (std::getenv("GYRO_ALLAN_PROFILE_MALLOC")) malloc_stats();
+#endif
+}
+
 /// Runs task(0..n-1) on up to `jobs` threads (0 = one per core); the first failing task in index order is rethrown,
 /// so errors read the same as with one thread.
 void parallelFor(size_t n, int jobs, const std::function<void(size_t)>& task) {
@@ -294,7 +332,10 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
   meta.tau_grid = tauGridName(opt.deviation.grid);
   meta.method = args.method;
   std::vector<double> temp_t, temp_v;  // temperature series (bags with a sensor_msgs/Temperature topic)
-  std::array<std::vector<double>, 3> accel;  // linear_acceleration (bags only), m/s^2
+  // Bags: samples and stamps held compactly (4 bytes each) until sanitized; accel = linear_acceleration, m/s^2.
+  std::array<CompactSeries, 3> gyro_c, accel;
+  CompactStamps t_c;
+  bool compact = false;
   meta.confidence = args.confidence;
   meta.input = args.input;
   SanitizeOptions so;
@@ -336,12 +377,17 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
     bo.start_s = args.start;
     bo.duration_s = args.duration;
     bo.progress = !args.quiet;
+    profileStage("start");
     ImuSeries s = readImuBags(args.bags, bo);
+    releaseFreed();  // the bag index (tens of MB of small nodes) is freed: give its pages back before the analysis
+    profileStage("read");
     meta.sources = s.bags;
     meta.topic = s.topic;
     names = {"x", "y", "z"};
-    t = std::move(s.t);
-    values = {std::move(s.gyro[0]), std::move(s.gyro[1]), std::move(s.gyro[2])};
+    t_c = std::move(s.t);
+    t = t_c.toSeconds();
+    gyro_c = std::move(s.gyro);
+    compact = true;
     temp_t = std::move(s.temperature_t);
     if (args.accel) accel = std::move(s.accel);
     temp_v = std::move(s.temperature);
@@ -352,10 +398,20 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
     values.resize(3);
     names.resize(3);
   }
-  std::vector<const std::vector<double>*> ptrs;
-  for (const auto& v : values) ptrs.push_back(&v);
-  SanitizedSeries ss = sanitize(t, ptrs, so);
-  for (auto& v : values) std::vector<double>().swap(v);  // the kept samples live on in ss
+  SanitizedSeries ss;
+  if (compact) {
+    ss = sanitizeCompact(t, {&gyro_c[0], &gyro_c[1], &gyro_c[2]}, so);
+    for (auto& v : gyro_c) v.clear();  // the kept samples live on in ss
+  } else {
+    std::vector<const std::vector<double>*> ptrs;
+    for (const auto& v : values) ptrs.push_back(&v);
+    ss = sanitize(t, ptrs, so);
+    for (auto& v : values) std::vector<double>().swap(v);
+  }
+  const size_t n_stamps = t.size();
+  if (compact) std::vector<double>().swap(t);  // rebuilt from t_c for the accelerometer
+  releaseFreed();
+  profileStage("sanitize");
   meta.stamps = ss.report;
   meta.warnings = ss.report.warnings();
   if (ss.report.kept < 3 || !(ss.report.nominal_period_s > 0))
@@ -363,71 +419,65 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
                                 std::to_string(ss.report.input) + ")");
   const double tau0 = ss.report.nominal_period_s;
   const std::vector<std::vector<double>> temperature_segments = ss.interpolateSegments(temp_t, temp_v);
+  // Gyro axes one after the other (each holds a long record's working set); with --jobs >= 2 each runs its wavelet
+  // split and model check concurrently. Memory stays at one axis's working set.
+  const size_t n_gyro = names.size();
+  std::vector<AxisAnalysis> results(n_gyro);
+  std::vector<std::vector<std::string>> axis_warnings(n_gyro);
+  opt.concurrent_stages = args.jobs != 1;
+  for (size_t a = 0; a < n_gyro; ++a) {
+    if (opt.input == InputKind::Rate) axis_warnings[a] = detectValueAnomalies(ss.v[a]).warnings("axis " + names[a]);
+    results[a] = analyzeAxis(names[a], ss.takeSegmentValues(static_cast<int>(a)), tau0, opt,
+                             temperature_segments.empty() ? nullptr : &temperature_segments);
+    releaseFreed();
+    profileStage(("axis " + names[a]).c_str());
+    // A gyro at rest reads Earth rate plus bias: hundreds of deg/s means wrong units or a moving sensor.
+    if (opt.input == InputKind::Rate && std::fabs(results[a].mean) > 1.0)
+      axis_warnings[a].push_back("axis " + names[a] + ": mean rate " + std::to_string(results[a].mean) +
+                                 " rad/s is not a gyro at rest (wrong units or a moving sensor?)");
+  }
+  {
+    const StampReport keep = ss.report;
+    ss = SanitizedSeries();  // free the stamps
+    ss.report = keep;
+  }
+  for (const auto& w : axis_warnings) meta.warnings.insert(meta.warnings.end(), w.begin(), w.end());
+
   // Accelerometer: the same engine, joint fit only (the wavelet split and model check are tuned for gyros and
-  // would double the run time); the mean (gravity) is removed first.
+  // would double the run time); the mean (gravity) is removed first. Its three axes run on --jobs threads.
   std::string accel_note;  // why the accelerometer was not analysed (stdout, not a warning: gyro-only IMUs are fine)
-  SanitizedSeries sa;
-  bool do_accel = false;
-  if (args.accel && !accel[0].empty() && accel[0].size() == t.size()) {
+  std::vector<AxisAnalysis> accel_results;
+  std::vector<double> accel_means;
+  if (args.accel && compact && !accel[0].empty() && accel[0].size() == n_stamps) {
     bool published = false;  // an IMU without accelerometer publishes zeros
     for (const auto& v : accel)
-      for (double x : v) published = published || (x != 0 && std::isfinite(x));
+      for (size_t i = 0; i < v.size() && !published; ++i) published = v[i] != 0 && std::isfinite(v[i]);
     if (!published) {
       accel_note = "accelerometer: linear_acceleration is all zero (not published?): not analysed";
     } else {
-      std::vector<const std::vector<double>*> ap{&accel[0], &accel[1], &accel[2]};
+      AnalysisOptions ao = opt;
+      ao.wavelet_split = false;
+      ao.model_check = false;
+      ao.method = "joint_fit";
       try {
-        sa = sanitize(t, ap, so);
-        do_accel = true;
+        SanitizedSeries sa = sanitizeCompact(t_c.toSeconds(), {&accel[0], &accel[1], &accel[2]}, so);
+        for (auto& v : accel) v.clear();
+        releaseFreed();
+        accel_results.resize(3);
+        accel_means.resize(3);
+        parallelFor(3, args.jobs, [&](size_t a) {
+          std::vector<std::vector<double>> segs = sa.segmentValues(static_cast<int>(a));
+          accel_means[a] = removeMean(&segs);
+          accel_results[a] = analyzeAxis("accel_" + names[a], segs, tau0, ao);
+        });
       } catch (const std::exception& e) {
+        accel_results.clear();
+        accel_means.clear();
         meta.warnings.push_back(std::string("accelerometer not analysed: ") + e.what());
       }
-      for (auto& v : accel) std::vector<double>().swap(v);  // sanitized copies are kept
     }
   }
-  // Every axis (gyro x, y, z, then the accelerometer's) is an independent task; they run on --jobs threads.
-  const size_t n_gyro = names.size(), n_accel = do_accel ? 3 : 0;
-  std::vector<AxisAnalysis> results(n_gyro), accel_results(n_accel);
-  std::vector<double> accel_means(n_accel);
-  std::vector<std::vector<std::string>> axis_warnings(n_gyro);
-  std::vector<std::exception_ptr> accel_errors(n_accel);
-  AnalysisOptions ao = opt;
-  ao.wavelet_split = false;
-  ao.model_check = false;
-  ao.method = "joint_fit";
-  parallelFor(n_gyro + n_accel, args.jobs, [&](size_t k) {
-    if (k < n_gyro) {
-      const size_t a = k;
-      if (opt.input == InputKind::Rate) axis_warnings[a] = detectValueAnomalies(ss.v[a]).warnings("axis " + names[a]);
-      results[a] = analyzeAxis(names[a], ss.segmentValues(static_cast<int>(a)), tau0, opt,
-                               temperature_segments.empty() ? nullptr : &temperature_segments);
-      // A gyro at rest reads Earth rate plus bias: hundreds of deg/s means wrong units or a moving sensor.
-      if (opt.input == InputKind::Rate && std::fabs(results[a].mean) > 1.0)
-        axis_warnings[a].push_back("axis " + names[a] + ": mean rate " + std::to_string(results[a].mean) +
-                                   " rad/s is not a gyro at rest (wrong units or a moving sensor?)");
-    } else {
-      const int a = static_cast<int>(k - n_gyro);
-      try {
-        std::vector<std::vector<double>> segs = sa.segmentValues(a);
-        accel_means[static_cast<size_t>(a)] = removeMean(&segs);
-        accel_results[static_cast<size_t>(a)] = analyzeAxis("accel_" + names[static_cast<size_t>(a)], segs, tau0, ao);
-      } catch (...) {
-        accel_errors[static_cast<size_t>(a)] = std::current_exception();
-      }
-    }
-  });
-  for (const auto& w : axis_warnings) meta.warnings.insert(meta.warnings.end(), w.begin(), w.end());
-  for (const auto& e : accel_errors) {
-    if (!e) continue;
-    accel_results.clear();
-    accel_means.clear();
-    try {
-      std::rethrow_exception(e);
-    } catch (const std::exception& x) {
-      meta.warnings.push_back(std::string("accelerometer not analysed: ") + x.what());
-    }
-    break;
-  }
+  profileStage("analysis");
   for (const auto& w : meta.warnings)
     if (!args.quiet) std::cerr << "analyze_bag: warning: " << w << "\n";
 
@@ -561,6 +611,11 @@ int main(int argc, char** argv) {
   // rosbag/cpp_common report parse problems through console_bridge before throwing: silence it so a corrupt bag
   // gives our one-line error only.
   console_bridge::setLogLevel(console_bridge::CONSOLE_BRIDGE_LOG_NONE);
+#ifdef __GLIBC__
+  // Long records are a few large arrays allocated and freed stage by stage: a fixed mmap threshold gives each back
+  // to the system when freed (glibc's adaptive threshold would move them into the heap, where freed space is kept).
+  mallopt(M_MMAP_THRESHOLD, 256 * 1024);
+#endif
   try {
     const Args args = parseArgs(argc, argv);
     return args.batch.empty() ? run(args) : runBatch(args);

@@ -8,6 +8,8 @@
 #include <string>
 #include <vector>
 
+#include "gyro_allan/compact_series.hpp"
+
 namespace gyro_allan {
 
 /// An input problem the user must fix (missing file, wrong topic type, empty bag...): what() is one line.
@@ -24,13 +26,14 @@ struct BagReadOptions {
   bool progress = false;          ///< print progress on stderr
 };
 
+/// The samples are held compactly (4 bytes each, see compact_series.hpp) while the bags' indexes are in memory.
 struct ImuSeries {
   std::string topic;
   std::string frame_id;
   std::vector<std::string> bags;           ///< in time order
-  std::vector<double> t;                   ///< stamps, s since (first non-zero stamp - 1 s); 0 = zero stamp
-  std::array<std::vector<double>, 3> gyro; ///< angular_velocity x, y, z, rad/s
-  std::array<std::vector<double>, 3> accel; ///< linear_acceleration x, y, z, m/s^2
+  CompactStamps t;                         ///< stamps, ns since (first non-zero stamp - 1 s); 0 = zero stamp
+  std::array<CompactSeries, 3> gyro;       ///< angular_velocity x, y, z, rad/s
+  std::array<CompactSeries, 3> accel;      ///< linear_acceleration x, y, z, m/s^2
   std::string temperature_topic;           ///< empty when none was read
   std::vector<double> temperature_t, temperature;  ///< stamps [s, same origin as t] and degC
   int64_t messages = 0;
