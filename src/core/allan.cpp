@@ -245,17 +245,20 @@ void sumsTotdev(const double* x, int64_t n, int64_t m, SegmentSums* s) {
 
 /// Modified total variance (NIST SP1065 sec. 5.2.13; Howe & Vernotte, PTTI 1999). For every window of L = 3m
 /// phase points y = x[i..i+L-1]: remove the frequency offset estimated from the means of the first and the last
-/// h = floor(L/2) points, whose centres are c = ceil(L/2) apart (slope = (mean_last - mean_first) / c); extend
+/// h = floor(L/2) points, whose centres are c = ceil(L/2) apart (slope s = (mean_last - mean_first) / c); extend
 /// the window by uninverted even reflection at both ends to 9m points [rev y, y, rev y]; average the squares of
 /// its 6m second differences of m-point averages. The first 3m of them lie in [rev y, y] (left fold), the last
 /// 3m in [y, rev y], which is the left fold of rev y. Each fold sequence is a palindrome, so its terms satisfy
 /// Z_j = Z_{L-j}: only j = 0..floor(L/2) are evaluated (weights 1, 2, ..., 2, and 1 for j = L/2 when L is even).
-/// With q the prefix sums of the detrended window (q[k] = y[0] + ... + y[k-1], qt = q[L]) a left-fold term
-/// m z_j = B1 - 2 B2 + B3 is q[j] + 3q[m-j] - 3q[2m-j] + q[3m-j] for j <= m and q[j] - 3q[j-m] - 3q[2m-j] +
-/// q[3m-j] for m < j <= L/2; for rev y, q is replaced by qt - q[L-k]. sumsq accumulates sum over windows and
-/// the 6m terms of (m z_j)^2; the window count N - 3m + 1 is the Stable32 "#". Cost ~3L per window (offset,
-/// prefix, terms): O(N m) per tau. With max_work > 0 and L * windows > max_work, windows start every stride-th
-/// sample and the mean over them stands for the mean over all windows.
+/// With q the prefix sums of the detrended window, a left-fold term m z_j = B1 - 2 B2 + B3 is q[j] + 3q[m-j] -
+/// 3q[2m-j] + q[3m-j] for j <= m and q[j] - 3q[j-m] - 3q[2m-j] + q[3m-j] for m < j <= L/2; for rev y, q is
+/// replaced by q[L] - q[L-k]. Written with P, the prefix sums of x over a block of windows, q[k] = P[i+k] - P[i]
+/// - k x[i] - s k(k-1)/2: the x[i] terms cancel, the offset of P cancels, so each term is four or five P values
+/// plus s times a constant per j, and P is built once per block (relative to a straight line through the block,
+/// which the terms are blind to, so its values stay small). sumsq accumulates sum over windows and the 6m terms
+/// of (m z_j)^2; the window count N - 3m + 1 is the Stable32 "#". Cost ~L per window plus ~2 per sample per
+/// block: O(N m) per tau. With max_work > 0 and L * windows > max_work, windows start every stride-th sample
+/// and the mean over them stands for the mean over all windows.
 void sumsMtotdev(const double* x, int64_t n, int64_t m, int64_t max_work, SegmentSums* s) {
   const int64_t L = 3 * m;
   if (n < L) return;
@@ -267,41 +270,78 @@ void sumsMtotdev(const double* x, int64_t n, int64_t m, int64_t max_work, Segmen
   }
   const int64_t h = L / 2, c = (L + 1) / 2;
   const double inv_span = 1.0 / (static_cast<double>(h) * static_cast<double>(c));
-  const int64_t jmid = L / 2;           // last j evaluated (pairs with L - j)
-  const int64_t j1 = std::min(m, jmid);  // regime 1: j = 0..m
-  std::vector<double> q(static_cast<size_t>(L) + 1);
-  double* qp = q.data();
+  const int64_t jmid = L / 2;            // last j evaluated (pairs with L - j)
+  const int64_t j1 = std::min(m, jmid);  // regime 1: j = 0..j1
+  // slope coefficients per j: the terms applied to the ramp's prefix sums T(k) = k (k - 1) / 2
+  auto T = [](int64_t k) { return 0.5L * static_cast<long double>(k) * static_cast<long double>(k - 1); };
+  std::vector<double> tl(static_cast<size_t>(jmid) + 1), tr(static_cast<size_t>(jmid) + 1);
+  for (int64_t j = 0; j <= jmid; ++j) {
+    if (j <= j1) {
+      tl[j] = static_cast<double>(T(j) + 3 * T(m - j) - 3 * T(2 * m - j) + T(3 * m - j));
+      tr[j] = static_cast<double>(2 * T(L) - T(3 * m - j) - 3 * T(2 * m + j) + 3 * T(m + j) - T(j));
+    } else {
+      tl[j] = static_cast<double>(T(j) - 3 * T(j - m) - 3 * T(2 * m - j) + T(3 * m - j));
+      tr[j] = static_cast<double>(-4 * T(L) - T(3 * m - j) + 3 * T(4 * m - j) + 3 * T(m + j) - T(j));
+    }
+  }
+  // blocks of windows (a multiple of the stride) sharing one prefix-sum array
+  const int64_t block = stride * std::max<int64_t>(1, (std::max<int64_t>(2 * L, 4096) + stride - 1) / stride);
+  std::vector<double> P;
   long double total = 0;
   int64_t used = 0;
-  for (int64_t i = 0; i < nwin; i += stride) {
-    const double* w = x + i;
-    const double x0 = w[0];  // local origin: keeps the window's values small
-    double first = 0, last = 0;
-    for (int64_t k = 0; k < h; ++k) first += w[k] - x0;
-    for (int64_t k = L - h; k < L; ++k) last += w[k] - x0;
-    const double slope = (last - first) * inv_span;
-    double acc = 0;
-    qp[0] = 0;
-    for (int64_t k = 0; k < L; ++k) {
-      acc += (w[k] - x0) - slope * static_cast<double>(k);
-      qp[k + 1] = acc;
+  for (int64_t i0 = 0; i0 < nwin; i0 += block) {
+    const int64_t iend = std::min(nwin, i0 + block);
+    const int64_t count = (iend - 1 - i0) + L;  // samples x[i0 .. i0+count-1] are used
+    const double x_ref = x[i0];
+    const double b = count > 1 ? (x[i0 + count - 1] - x_ref) / static_cast<double>(count - 1) : 0.0;
+    P.resize(static_cast<size_t>(count) + 1);
+    long double acc = 0;
+    P[0] = 0;
+    for (int64_t k = 0; k < count; ++k) {
+      acc += (x[i0 + k] - x_ref) - b * static_cast<double>(k);
+      P[k + 1] = static_cast<double>(acc);
     }
-    const double qt = acc;
-    double ends = 0, inner = 0;  // weight-1 and weight-2 terms
-    for (int64_t j = 0; j <= j1; ++j) {
-      const double zl = qp[j] + 3.0 * qp[m - j] - 3.0 * qp[2 * m - j] + qp[3 * m - j];
-      const double zr = 2.0 * qt - qp[3 * m - j] - 3.0 * qp[2 * m + j] + 3.0 * qp[m + j] - qp[j];
-      const double v = zl * zl + zr * zr;
-      if (j == 0 || 2 * j == L) ends += v; else inner += v;
+    for (int64_t i = i0; i < iend; i += stride) {
+      const double* p = P.data() + (i - i0);
+      const double p0 = p[0], pL = p[L];
+      const double slope = ((pL - p[L - h]) - (p[h] - p0)) * inv_span;
+      const double* t_l = tl.data();
+      const double* t_r = tr.data();
+      auto term1 = [&](int64_t j) {
+        const double zl = p[j] + 3.0 * p[m - j] - 3.0 * p[2 * m - j] + p[3 * m - j] - 2.0 * p0 - slope * t_l[j];
+        const double zr = 2.0 * pL - p[3 * m - j] - 3.0 * p[2 * m + j] + 3.0 * p[m + j] - p[j] - slope * t_r[j];
+        return zl * zl + zr * zr;
+      };
+      auto term2 = [&](int64_t j) {
+        const double zl = p[j] - 3.0 * p[j - m] - 3.0 * p[2 * m - j] + p[3 * m - j] + 4.0 * p0 - slope * t_l[j];
+        const double zr = -4.0 * pL - p[3 * m - j] + 3.0 * p[4 * m - j] + 3.0 * p[m + j] - p[j] - slope * t_r[j];
+        return zl * zl + zr * zr;
+      };
+      // weight 1: j = 0 and (L even) j = L/2; weight 2: the rest. Four accumulators break the add chain.
+      double ends = term1(0);
+      const int64_t last_inner = (L % 2 == 0) ? jmid - 1 : jmid;
+      if (L % 2 == 0) ends += jmid <= j1 ? term1(jmid) : term2(jmid);
+      double a0 = 0, a1 = 0, a2 = 0, a3 = 0;
+      const int64_t r1_end = std::min(j1, last_inner);  // regime 1: j = 1..r1_end
+      int64_t j = 1;
+      for (; j + 3 <= r1_end; j += 4) {
+        a0 += term1(j);
+        a1 += term1(j + 1);
+        a2 += term1(j + 2);
+        a3 += term1(j + 3);
+      }
+      for (; j <= r1_end; ++j) a0 += term1(j);
+      j = std::max<int64_t>(j1 + 1, 1);  // regime 2: j = j1+1..last_inner
+      for (; j + 3 <= last_inner; j += 4) {
+        a0 += term2(j);
+        a1 += term2(j + 1);
+        a2 += term2(j + 2);
+        a3 += term2(j + 3);
+      }
+      for (; j <= last_inner; ++j) a0 += term2(j);
+      total += ends + 2.0 * ((a0 + a1) + (a2 + a3));
+      ++used;
     }
-    for (int64_t j = j1 + 1; j <= jmid; ++j) {
-      const double zl = qp[j] - 3.0 * qp[j - m] - 3.0 * qp[2 * m - j] + qp[3 * m - j];
-      const double zr = -4.0 * qt - qp[3 * m - j] + 3.0 * qp[4 * m - j] + 3.0 * qp[m + j] - qp[j];
-      const double v = zl * zl + zr * zr;
-      if (2 * j == L) ends += v; else inner += v;
-    }
-    total += ends + 2.0 * inner;
-    ++used;
   }
   s->sumsq += used == nwin ? total : total * static_cast<long double>(nwin) / static_cast<long double>(used);
   s->terms += nwin;
