@@ -285,8 +285,8 @@ FeatureExcess measureFeatureExcess(const Psd& ps, double f0, double w, double ta
     auto blockExcess = [&](double f_a, double f_b, double* excess) {
       double sp = 0, sf = 0;
       int cnt = 0;
-      for (size_t i = first; i < nb; ++i) {
-        if (ps.f[i] < f_a || ps.f[i] >= f_b) continue;
+      const size_t start = static_cast<size_t>(std::lower_bound(ps.f.begin(), ps.f.end(), f_a) - ps.f.begin());
+      for (size_t i = std::max(first, start); i < nb && ps.f[i] < f_b; ++i) {
         sp += ps.p[i];
         sf += floorAt(ps.f[i]);
         ++cnt;
