@@ -1,6 +1,8 @@
 // Streaming rosbag reader for sensor_msgs/Imu and sensor_msgs/Temperature.
 #include "gyro_allan/io/bag_input.hpp"
 
+#include "bag_direct.hpp"
+
 #include <unistd.h>
 
 #include <algorithm>
@@ -18,6 +20,8 @@
 namespace gyro_allan {
 namespace {
 
+using bag_detail::relativeStampNs;
+
 const char* kImuType = "sensor_msgs/Imu";
 const char* kTempType = "sensor_msgs/Temperature";
 
@@ -25,21 +29,6 @@ std::string joinTopics(const std::map<std::string, std::string>& topics) {
   std::string s;
   for (const auto& kv : topics) s += (s.empty() ? "" : ", ") + kv.first + " [" + kv.second + "]";
   return s.empty() ? "none" : s;
-}
-
-/// Stamps as seconds since (first non-zero stamp - 1 s), computed in integer nanoseconds: epoch seconds in a double
-/// carry only ~0.2 us of precision, which would blur the sample period. A zero stamp stays exactly 0 (invalid).
-double relativeStamp(const ros::Time& stamp, ros::Time* origin) {
-  if (stamp.isZero()) return 0.0;
-  if (origin->isZero()) *origin = stamp - ros::Duration(1.0);
-  return (stamp - *origin).toSec();
-}
-
-/// The same in integer nanoseconds (0 = zero stamp); CompactStamps::toSeconds gives back relativeStamp's value.
-int64_t relativeStampNs(const ros::Time& stamp, ros::Time* origin) {
-  if (stamp.isZero()) return 0;
-  if (origin->isZero()) *origin = stamp - ros::Duration(1.0);
-  return (stamp - *origin).toNSec();
 }
 
 struct OpenBag {
@@ -54,6 +43,11 @@ struct OpenBag {
 ImuSeries readImuBags(const std::vector<std::string>& paths, const BagReadOptions& options) {
   if (paths.empty()) throw InputError("no bag given");
   if (options.start_s < 0 || options.duration_s < 0) throw InputError("--start and --duration must be >= 0");
+  if (options.reader != "auto" && options.reader != "rosbag") throw InputError("reader must be auto or rosbag");
+  {
+    ImuSeries direct;
+    if (options.reader == "auto" && readImuBagsDirect(paths, options, &direct)) return direct;
+  }
   std::vector<OpenBag> bags;
   for (const auto& path : paths) {
     {
@@ -129,6 +123,7 @@ ImuSeries readImuBags(const std::vector<std::string>& paths, const BagReadOption
   size_t done = 0, next_report = total / 50 + 1;
   double t_first = -1;
   ros::Time t_origin;  // zero until the first non-zero stamp
+  std::vector<ros::Time> temp_abs;
   for (auto& b : bags) {
     s.bags.push_back(b.path);
     std::vector<std::string> wanted{topic};
@@ -139,7 +134,7 @@ ImuSeries readImuBags(const std::vector<std::string>& paths, const BagReadOption
         if (m.getTopic() == temp_topic) {
           auto tm = m.instantiate<sensor_msgs::Temperature>();
           if (!tm) continue;
-          s.temperature_t.push_back(relativeStamp(options.use_bag_time ? m.getTime() : tm->header.stamp, &t_origin));
+          temp_abs.push_back(options.use_bag_time ? m.getTime() : tm->header.stamp);
           s.temperature.push_back(tm->temperature);
           continue;
         }
@@ -176,6 +171,8 @@ ImuSeries readImuBags(const std::vector<std::string>& paths, const BagReadOption
   }
   if (show) std::fprintf(stderr, "\rreading %s: done     \n", topic.c_str());
   s.messages = static_cast<int64_t>(done);
+  s.reader = "rosbag";
+  bag_detail::finishTemperature(temp_abs, &t_origin, &s.temperature_t);
   if (s.t.empty())
     throw InputError("topic '" + topic + "' has no messages" +
                      std::string(options.start_s > 0 || options.duration_s > 0 ? " in the requested time range" : ""));

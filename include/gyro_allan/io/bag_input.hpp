@@ -24,6 +24,8 @@ struct BagReadOptions {
   double start_s = 0;             ///< skip this many seconds from the first message
   double duration_s = 0;          ///< keep at most this many seconds (0 = all)
   bool progress = false;          ///< print progress on stderr
+  /// "auto": the direct chunk reader when the bags allow it, else rosbag::View; "rosbag": always rosbag::View.
+  std::string reader = "auto";
 };
 
 /// The samples are held compactly (4 bytes each, see compact_series.hpp) while the bags' indexes are in memory.
@@ -37,6 +39,7 @@ struct ImuSeries {
   std::string temperature_topic;           ///< empty when none was read
   std::vector<double> temperature_t, temperature;  ///< stamps [s, same origin as t] and degC
   int64_t messages = 0;
+  std::string reader;                      ///< "direct" (bag_direct.hpp) or "rosbag" (rosbag::View)
 };
 
 /// Reads every bag (ordered by their first stamp) for the chosen topic. Throws InputError.

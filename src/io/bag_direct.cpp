@@ -1,0 +1,378 @@
+// Direct chunk-by-chunk reader of ROS bag format 2.0 for sensor_msgs/Imu (+ Temperature): no per-message index.
+//
+// Format (wiki.ros.org/Bags/Format/2.0): "#ROSBAG V2.0\n", then records of
+//   uint32 header_len, header = fields (uint32 len, "name=value"), uint32 data_len, data.
+// op 0x03 bag header (index_pos, conn_count, chunk_count), 0x05 chunk (compression, size; data = records),
+// 0x02 message data (conn, time; data = serialized message), 0x07 connection (conn, topic; data = connection header
+// fields type, md5sum, ...), 0x04 index data, 0x06 chunk info (ver, chunk_pos, start_time, end_time, count; data =
+// count x (conn, msg_count)). The connection and chunk-info records follow the chunks at index_pos.
+#include "bag_direct.hpp"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <cstring>
+#include <map>
+#include <set>
+
+#include <bzlib.h>
+#include <roslz4/lz4s.h>
+#include <ros/serialization.h>
+#include <ros/time.h>
+#include <sensor_msgs/Imu.h>
+#include <sensor_msgs/Temperature.h>
+
+namespace gyro_allan {
+namespace {
+
+using bag_detail::relativeStamp;
+using bag_detail::relativeStampNs;
+
+const char* kImuType = "sensor_msgs/Imu";
+const char* kTempType = "sensor_msgs/Temperature";
+constexpr uint8_t kOpMessage = 0x02, kOpBagHeader = 0x03, kOpChunk = 0x05, kOpChunkInfo = 0x06, kOpConnection = 0x07;
+
+/// Any reason to leave the bag to rosbag.
+struct NotDirect {};
+
+uint32_t u32(const char* p) {
+  uint32_t v;
+  std::memcpy(&v, p, 4);
+  return v;  // bag files are little-endian, like every platform ROS 1 runs on
+}
+uint64_t u64(const char* p) {
+  uint64_t v;
+  std::memcpy(&v, p, 8);
+  return v;
+}
+
+using Fields = std::map<std::string, std::string>;
+
+Fields parseFields(const char* p, size_t len) {
+  Fields f;
+  size_t i = 0;
+  while (i < len) {
+    if (len - i < 4) throw NotDirect{};
+    const uint32_t n = u32(p + i);
+    i += 4;
+    if (n > len - i) throw NotDirect{};
+    const char* eq = static_cast<const char*>(std::memchr(p + i, '=', n));
+    if (!eq) throw NotDirect{};
+    f[std::string(p + i, eq)] = std::string(eq + 1, p + i + n);
+    i += n;
+  }
+  return f;
+}
+
+const std::string& field(const Fields& f, const char* name, size_t size = 0) {
+  const auto it = f.find(name);
+  if (it == f.end() || (size && it->second.size() != size)) throw NotDirect{};
+  return it->second;
+}
+
+ros::Time timeField(const std::string& v) { return ros::Time(u32(v.data()), u32(v.data() + 4)); }
+
+/// Value of field `name` (of `size` bytes) in a record header, without building a map (the per-message path).
+const char* findField(const char* p, size_t len, const char* name, size_t size) {
+  const size_t nl = std::strlen(name);
+  for (size_t i = 0; i + 4 <= len;) {
+    const uint32_t n = u32(p + i);
+    i += 4;
+    if (n > len - i) throw NotDirect{};
+    if (n == nl + 1 + size && std::memcmp(p + i, name, nl) == 0 && p[i + nl] == '=') return p + i + nl + 1;
+    i += n;
+  }
+  throw NotDirect{};
+}
+
+class File {
+ public:
+  explicit File(const std::string& path) : f_(std::fopen(path.c_str(), "rb")) {
+    if (!f_) throw NotDirect{};
+  }
+  ~File() { std::fclose(f_); }
+  File(const File&) = delete;
+  File& operator=(const File&) = delete;
+  void seek(uint64_t pos) {
+    if (fseeko(f_, static_cast<off_t>(pos), SEEK_SET) != 0) throw NotDirect{};
+  }
+  void read(void* dst, size_t n) {
+    if (n && std::fread(dst, 1, n, f_) != n) throw NotDirect{};
+  }
+  uint32_t readU32() {
+    char b[4];
+    read(b, 4);
+    return u32(b);
+  }
+  /// One record at the current position: header fields, and its data into *data (or skipped when null).
+  Fields readRecord(std::string* data) {
+    const uint32_t hlen = readU32();
+    if (hlen > (1u << 24)) throw NotDirect{};
+    std::string h(hlen, '\0');
+    read(&h[0], hlen);
+    Fields f = parseFields(h.data(), h.size());
+    const uint32_t dlen = readU32();
+    if (data) {
+      data->resize(dlen);
+      read(&(*data)[0], dlen);
+    } else if (fseeko(f_, dlen, SEEK_CUR) != 0) {
+      throw NotDirect{};
+    }
+    return f;
+  }
+
+ private:
+  FILE* f_;
+};
+
+struct Connection {
+  std::string topic, type, md5;
+};
+
+struct ChunkInfo {
+  uint64_t pos = 0;
+  ros::Time start, end;
+  std::map<uint32_t, uint32_t> counts;  // connection -> messages in the chunk
+};
+
+struct DirectBag {
+  std::string path;
+  std::map<uint32_t, Connection> connections;
+  std::vector<ChunkInfo> chunks;
+  ros::Time first;
+};
+
+DirectBag openBag(const std::string& path) {
+  DirectBag b;
+  b.path = path;
+  File f(path);
+  char magic[13];
+  f.read(magic, 13);
+  if (std::memcmp(magic, "#ROSBAG V2.0\n", 13) != 0) throw NotDirect{};
+  const Fields h = f.readRecord(nullptr);
+  if (field(h, "op", 1)[0] != kOpBagHeader) throw NotDirect{};
+  const uint64_t index_pos = u64(field(h, "index_pos", 8).data());
+  const uint32_t conn_count = u32(field(h, "conn_count", 4).data());
+  const uint32_t chunk_count = u32(field(h, "chunk_count", 4).data());
+  if (index_pos == 0 || chunk_count == 0) throw NotDirect{};  // unindexed (still recording) or empty
+  f.seek(index_pos);
+  for (uint32_t i = 0; i < conn_count; ++i) {
+    std::string data;
+    const Fields c = f.readRecord(&data);
+    if (field(c, "op", 1)[0] != kOpConnection) throw NotDirect{};
+    const Fields ch = parseFields(data.data(), data.size());
+    Connection con;
+    con.topic = field(c, "topic");
+    con.type = field(ch, "type");
+    con.md5 = field(ch, "md5sum");
+    b.connections[u32(field(c, "conn", 4).data())] = con;
+  }
+  uint64_t total = 0;
+  for (uint32_t i = 0; i < chunk_count; ++i) {
+    std::string data;
+    const Fields c = f.readRecord(&data);
+    if (field(c, "op", 1)[0] != kOpChunkInfo || u32(field(c, "ver", 4).data()) != 1) throw NotDirect{};
+    ChunkInfo ci;
+    ci.pos = u64(field(c, "chunk_pos", 8).data());
+    ci.start = timeField(field(c, "start_time", 8));
+    ci.end = timeField(field(c, "end_time", 8));
+    const uint32_t n = u32(field(c, "count", 4).data());
+    if (data.size() != 8ull * n) throw NotDirect{};
+    for (uint32_t k = 0; k < n; ++k) {
+      ci.counts[u32(data.data() + 8 * k)] += u32(data.data() + 8 * k + 4);
+      total += u32(data.data() + 8 * k + 4);
+    }
+    if (i == 0 || ci.start < b.first) b.first = ci.start;
+    b.chunks.push_back(std::move(ci));
+  }
+  if (total == 0) throw NotDirect{};  // rosbag says "has no messages"
+  return b;
+}
+
+/// The chunk's records, decompressed.
+void readChunk(File* f, uint64_t pos, std::string* compressed, std::string* out) {
+  f->seek(pos);
+  const Fields c = f->readRecord(compressed);
+  if (field(c, "op", 1)[0] != kOpChunk) throw NotDirect{};
+  const std::string& comp = field(c, "compression");
+  const uint32_t size = u32(field(c, "size", 4).data());
+  if (comp == "none") {
+    if (compressed->size() != size) throw NotDirect{};
+    out->swap(*compressed);
+    return;
+  }
+  out->resize(size);
+  unsigned int got = size;
+  if (comp == "bz2") {
+    if (BZ2_bzBuffToBuffDecompress(&(*out)[0], &got, &(*compressed)[0], static_cast<unsigned int>(compressed->size()),
+                                   0, 0) != BZ_OK)
+      throw NotDirect{};
+  } else if (comp == "lz4") {
+    if (roslz4_buffToBuffDecompress(&(*compressed)[0], static_cast<unsigned int>(compressed->size()), &(*out)[0],
+                                    &got) != ROSLZ4_OK)
+      throw NotDirect{};
+  } else {
+    throw NotDirect{};
+  }
+  if (got != size) throw NotDirect{};
+}
+
+template <class M>
+void deserialize(const char* p, size_t n, M* msg) {
+  ros::serialization::IStream s(reinterpret_cast<uint8_t*>(const_cast<char*>(p)), static_cast<uint32_t>(n));
+  ros::serialization::deserialize(s, *msg);
+}
+
+bool md5Matches(const std::string& md5, const char* expected) { return md5 == "*" || md5 == expected; }
+
+}  // namespace
+
+bool readImuBagsDirect(const std::vector<std::string>& paths, const BagReadOptions& options, ImuSeries* out) {
+  try {
+    if (paths.empty() || options.start_s < 0 || options.duration_s < 0) return false;
+    std::vector<DirectBag> bags;
+    for (const auto& p : paths) bags.push_back(openBag(p));
+    std::sort(bags.begin(), bags.end(), [](const DirectBag& a, const DirectBag& b) { return a.first < b.first; });
+
+    // Topic choice as in readImuBags; anything that would be an error there is left to it.
+    std::map<std::string, std::string> topics;
+    for (const auto& b : bags)
+      for (const auto& kv : b.connections) topics.insert({kv.second.topic, kv.second.type});
+    std::string topic = options.topic;
+    if (!topic.empty()) {
+      const auto it = topics.find(topic);
+      if (it == topics.end() || it->second != kImuType) return false;
+    } else {
+      std::vector<std::string> imu;
+      for (const auto& kv : topics)
+        if (kv.second == kImuType) imu.push_back(kv.first);
+      if (imu.size() != 1) return false;
+      topic = imu.front();
+    }
+    std::string temp_topic = options.temperature_topic;
+    if (temp_topic == "-") {
+      temp_topic.clear();
+    } else if (!temp_topic.empty()) {
+      const auto it = topics.find(temp_topic);
+      if (it == topics.end() || it->second != kTempType) return false;
+    } else {
+      std::vector<std::string> tt;
+      for (const auto& kv : topics)
+        if (kv.second == kTempType) tt.push_back(kv.first);
+      if (tt.size() == 1) temp_topic = tt.front();
+    }
+
+    ImuSeries s;
+    s.topic = topic;
+    s.temperature_topic = temp_topic;
+    size_t total = 0;
+    for (const auto& b : bags)
+      for (const auto& c : b.chunks)
+        for (const auto& kv : c.counts) {
+          const auto it = b.connections.find(kv.first);
+          if (it == b.connections.end()) return false;
+          if (it->second.topic == topic) total += kv.second;
+        }
+    for (auto& x : s.gyro) x.reserve(total);
+    for (auto& x : s.accel) x.reserve(total);
+    s.t.reserve(total);
+    const bool show = options.progress && isatty(fileno(stderr));
+    size_t done = 0, next_report = total / 50 + 1;
+    double t_first = -1;
+    ros::Time t_origin;
+    sensor_msgs::Imu imu;  // reused for every message
+    sensor_msgs::Temperature tm;
+    std::vector<ros::Time> temp_abs;
+    std::string compressed, chunk;
+    for (const auto& b : bags) {
+      s.bags.push_back(b.path);
+      // Wanted connections: 1 = IMU, 2 = temperature (skipped, like a failed instantiate, on a definition mismatch).
+      std::map<uint32_t, int> wanted;
+      for (const auto& kv : b.connections) {
+        if (kv.second.topic == topic) {
+          if (kv.second.type != kImuType || !md5Matches(kv.second.md5, ros::message_traits::MD5Sum<sensor_msgs::Imu>::value()))
+            return false;  // rosbag reports the mismatch
+          wanted[kv.first] = 1;
+        } else if (!temp_topic.empty() && kv.second.topic == temp_topic) {
+          if (md5Matches(kv.second.md5, ros::message_traits::MD5Sum<sensor_msgs::Temperature>::value()))
+            wanted[kv.first] = 2;
+        }
+      }
+      File f(b.path);
+      ros::Time last;  // record times must not decrease (rosbag::View returns them sorted by time)
+      for (const auto& ci : b.chunks) {
+        bool any = false;
+        for (const auto& kv : ci.counts) any = any || wanted.count(kv.first);
+        if (!any) continue;  // nothing wanted in this chunk: not even decompressed
+        if (ci.start < last) return false;
+        readChunk(&f, ci.pos, &compressed, &chunk);
+        const char* p = chunk.data();
+        const char* end = p + chunk.size();
+        while (p < end) {
+          if (end - p < 4) throw NotDirect{};
+          const uint32_t hlen = u32(p);
+          p += 4;
+          if (static_cast<size_t>(end - p) < hlen + 4ull) throw NotDirect{};
+          const char* hdr = p;
+          p += hlen;
+          const uint32_t dlen = u32(p);
+          p += 4;
+          if (static_cast<size_t>(end - p) < dlen) throw NotDirect{};
+          const char* data = p;
+          p += dlen;
+          // Only message records of wanted connections are parsed beyond the op field.
+          if (*findField(hdr, hlen, "op", 1) != kOpMessage) continue;
+          const auto w = wanted.find(u32(findField(hdr, hlen, "conn", 4)));
+          if (w == wanted.end()) continue;
+          const char* tf = findField(hdr, hlen, "time", 8);
+          const ros::Time rec_time(u32(tf), u32(tf + 4));
+          if (rec_time < last) return false;
+          last = rec_time;
+          if (w->second == 2) {
+            deserialize(data, dlen, &tm);
+            temp_abs.push_back(options.use_bag_time ? rec_time : tm.header.stamp);
+            s.temperature.push_back(tm.temperature);
+            continue;
+          }
+          deserialize(data, dlen, &imu);
+          ++done;
+          const ros::Time stamp = options.use_bag_time ? rec_time : imu.header.stamp;
+          const int64_t t_ns = relativeStampNs(stamp, &t_origin);
+          const double t = t_ns == 0 ? 0.0 : (stamp - t_origin).toSec();
+          if (t_first < 0 && t != 0) t_first = t;
+          if (options.start_s > 0 || options.duration_s > 0) {
+            if (t_first >= 0 && t < t_first + options.start_s) continue;
+            if (options.duration_s > 0 && t_first >= 0 && t >= t_first + options.start_s + options.duration_s) continue;
+          }
+          if (s.frame_id.empty()) s.frame_id = imu.header.frame_id;
+          s.t.push_back(t_ns);
+          s.gyro[0].push_back(imu.angular_velocity.x);
+          s.gyro[1].push_back(imu.angular_velocity.y);
+          s.gyro[2].push_back(imu.angular_velocity.z);
+          s.accel[0].push_back(imu.linear_acceleration.x);
+          s.accel[1].push_back(imu.linear_acceleration.y);
+          s.accel[2].push_back(imu.linear_acceleration.z);
+          if (show && done >= next_report) {
+            std::fprintf(stderr, "\rreading %s: %3.0f %%", topic.c_str(), 100.0 * done / std::max<size_t>(1, total));
+            next_report += total / 50 + 1;
+          }
+        }
+      }
+    }
+    if (done != total) return false;  // the index promised other counts: let rosbag judge
+    if (show) std::fprintf(stderr, "\rreading %s: done     \n", topic.c_str());
+    s.messages = static_cast<int64_t>(done);
+    if (s.t.empty()) return false;  // rosbag path gives the "no messages in the range" error
+    bag_detail::finishTemperature(temp_abs, &t_origin, &s.temperature_t);
+    s.reader = "direct";
+    *out = std::move(s);
+    return true;
+  } catch (const NotDirect&) {
+    return false;
+  } catch (const ros::Exception&) {  // serialization overrun: a truncated message
+    return false;
+  }
+}
+
+}  // namespace gyro_allan

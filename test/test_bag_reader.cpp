@@ -1,0 +1,157 @@
+// The direct chunk reader (bag_direct.cpp) must give exactly what rosbag::View gives, and step aside when unsure.
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include <rosbag/bag.h>
+#include <sensor_msgs/Imu.h>
+#include <sensor_msgs/Temperature.h>
+#include <std_msgs/String.h>
+
+#include "gyro_allan/io/bag_input.hpp"
+
+using namespace gyro_allan;
+
+namespace {
+
+std::string outPath(const std::string& name) { return std::string(GYRO_ALLAN_TEST_OUT) + "/bag_reader_" + name; }
+
+struct BagSpec {
+  rosbag::compression::CompressionType compression = rosbag::compression::Uncompressed;
+  int n = 3000;
+  double t0 = 1700000000.0;
+  bool temperature = true, other_topic = true, record_times_backwards = false, zero_stamps = false;
+};
+
+/// IMU at 200 Hz with a temperature topic at 1 Hz and an unrelated topic, small chunks (many of them).
+void writeBag(const std::string& path, const BagSpec& spec) {
+  rosbag::Bag bag(path, rosbag::bagmode::Write);
+  bag.setCompression(spec.compression);
+  bag.setChunkThreshold(2048);
+  for (int i = 0; i < spec.n; ++i) {
+    const int k = spec.record_times_backwards && i == spec.n / 2 ? i - 50 : i;  // one record written late
+    const ros::Time rec(spec.t0 + 0.005 * k + 0.0011);
+    sensor_msgs::Imu m;
+    m.header.seq = static_cast<uint32_t>(i);
+    m.header.stamp = spec.zero_stamps && i % 97 == 5 ? ros::Time() : ros::Time(spec.t0 + 0.005 * i);
+    m.header.frame_id = "imu_link";
+    m.angular_velocity.x = 1e-3 * std::sin(0.01 * i) + 7e-5;
+    m.angular_velocity.y = -2e-4 * i * 1e-3;
+    m.angular_velocity.z = 0.3 + 1e-5 * (i % 13);
+    m.linear_acceleration.x = 0.01 * (i % 7);
+    m.linear_acceleration.y = -0.02;
+    m.linear_acceleration.z = 9.81 + 1e-4 * (i % 5);
+    bag.write("/imu", rec, m);
+    if (spec.temperature && i % 200 == 0) {
+      sensor_msgs::Temperature t;
+      t.header.stamp = ros::Time(spec.t0 + 0.005 * i + 0.002);
+      t.temperature = 25.0 + 0.001 * i;
+      bag.write("/imu/temperature", rec, t);
+    }
+    if (spec.other_topic && i % 50 == 0) {
+      std_msgs::String s;
+      s.data = "x";
+      bag.write("/chatter", rec, s);
+    }
+  }
+  bag.close();
+}
+
+void expectSame(const ImuSeries& a, const ImuSeries& b) {
+  EXPECT_EQ(a.topic, b.topic);
+  EXPECT_EQ(a.frame_id, b.frame_id);
+  EXPECT_EQ(a.bags, b.bags);
+  EXPECT_EQ(a.messages, b.messages);
+  EXPECT_EQ(a.temperature_topic, b.temperature_topic);
+  ASSERT_EQ(a.t.size(), b.t.size());
+  EXPECT_EQ(a.t.toNanoseconds(), b.t.toNanoseconds());
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_EQ(a.gyro[k].toVector(), b.gyro[k].toVector());
+    EXPECT_EQ(a.accel[k].toVector(), b.accel[k].toVector());
+  }
+  EXPECT_EQ(a.temperature_t, b.temperature_t);
+  EXPECT_EQ(a.temperature, b.temperature);
+}
+
+ImuSeries read(const std::vector<std::string>& paths, BagReadOptions o, const char* reader) {
+  o.reader = reader;
+  return readImuBags(paths, o);
+}
+
+}  // namespace
+
+TEST(BagReader, DirectEqualsRosbagForEveryCompression) {
+  int i = 0;
+  for (auto c : {rosbag::compression::Uncompressed, rosbag::compression::BZ2, rosbag::compression::LZ4}) {
+    BagSpec spec;
+    spec.compression = c;
+    spec.zero_stamps = true;
+    const std::string path = outPath("c" + std::to_string(i++) + ".bag");
+    writeBag(path, spec);
+    const ImuSeries d = read({path}, {}, "auto"), r = read({path}, {}, "rosbag");
+    EXPECT_EQ(d.reader, "direct");
+    EXPECT_EQ(r.reader, "rosbag");
+    EXPECT_EQ(d.messages, spec.n);
+    EXPECT_EQ(d.temperature.size(), 15u);
+    expectSame(d, r);
+  }
+}
+
+TEST(BagReader, DirectEqualsRosbagWithOptions) {
+  BagSpec spec;
+  const std::string a = outPath("a.bag"), b = outPath("b.bag");
+  writeBag(a, spec);
+  spec.t0 += 20.0;  // the second bag continues after the first
+  writeBag(b, spec);
+  std::vector<BagReadOptions> opts(4);
+  opts[1].use_bag_time = true;
+  opts[2].start_s = 3.0;
+  opts[2].duration_s = 10.0;
+  opts[3].temperature_topic = "-";
+  opts[3].topic = "/imu";
+  for (const auto& o : opts) {
+    const ImuSeries d = read({b, a}, o, "auto"), r = read({b, a}, o, "rosbag");  // given out of order on purpose
+    EXPECT_EQ(d.reader, "direct");
+    expectSame(d, r);
+  }
+}
+
+TEST(BagReader, StepsAsideWhenRecordsAreNotInTimeOrder) {
+  BagSpec spec;
+  spec.record_times_backwards = true;
+  const std::string path = outPath("backwards.bag");
+  writeBag(path, spec);
+  const ImuSeries d = read({path}, {}, "auto"), r = read({path}, {}, "rosbag");
+  EXPECT_EQ(d.reader, "rosbag");  // rosbag::View sorts by record time; the file order differs
+  expectSame(d, r);
+}
+
+TEST(BagReader, ErrorsStillComeFromRosbag) {
+  BagSpec spec;
+  spec.temperature = false;
+  const std::string path = outPath("errors.bag");
+  writeBag(path, spec);
+  BagReadOptions o;
+  o.topic = "/chatter";
+  try {
+    read({path}, o, "auto");
+    FAIL() << "no error for a topic of the wrong type";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("has type std_msgs/String, not sensor_msgs/Imu"), std::string::npos) << e.what();
+  }
+  // Truncated copy: the index at the end is gone.
+  const std::string cut = outPath("cut.bag");
+  {
+    FILE* in = std::fopen(path.c_str(), "rb");
+    FILE* out = std::fopen(cut.c_str(), "wb");
+    ASSERT_TRUE(in && out);
+    std::vector<char> buf(20000);
+    const size_t n = std::fread(buf.data(), 1, buf.size(), in);
+    std::fwrite(buf.data(), 1, n, out);
+    std::fclose(in);
+    std::fclose(out);
+  }
+  EXPECT_THROW(read({cut}, {}, "auto"), InputError);
+}
