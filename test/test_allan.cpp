@@ -356,6 +356,16 @@ TEST(AllanMtotdev, WhiteFmExpectationAndStride) {
     const double exact = c.points[m == 16 ? 2 : 3].dev;
     EXPECT_NEAR(s.points[i].dev / exact, 1.0, 0.005) << "m=" << m << " stride " << s.points[i].stride;
   }
+  // Default (automatic) budget max(2^26, 24 N): exact below it, stride <= ceil(m/8) above.
+  const auto d = computeDeviationAt("mtotdev", y, InputKind::Rate, 1.0, {16, 1024, 16384}, DeviationOptions{});
+  ASSERT_EQ(d.points.size(), 3u);
+  EXPECT_EQ(d.points[0].stride, 1);  // 48 * 2e5 < 2^26
+  for (const auto& p : d.points) {
+    const int64_t work = (200001 - 3 * p.m + 1) * 3 * p.m;
+    const int64_t budget = std::max<int64_t>(int64_t(1) << 26, 24 * 200001);
+    EXPECT_EQ(p.stride, (work + budget - 1) / budget) << "m=" << p.m;
+    EXPECT_LE(p.stride, (p.m + 7) / 8) << "m=" << p.m;
+  }
 }
 
 // ------------------------------------------------------------------------------------------------ noise ID, EDF
@@ -473,6 +483,10 @@ TEST(AllanValidation, BadInputsThrow) {
   EXPECT_THROW(deviationEdf("oadev", 3, 1, 100), std::invalid_argument);
   EXPECT_THROW(deviationEdf("nope", 0, 1, 100), std::invalid_argument);
   EXPECT_THROW(rateToAngle(y, 0.0), std::invalid_argument);
+  DeviationOptions bad_budget;
+  bad_budget.mtot_max_work = -2;
+  EXPECT_THROW(computeDeviation("mtotdev", y, InputKind::Rate, 1.0, bad_budget), std::invalid_argument);
+  EXPECT_THROW(computeDeviation("ttotdev", y, InputKind::Rate, 1.0, bad_budget), std::invalid_argument);
   EXPECT_FALSE(isDeviationName("allan"));
   EXPECT_TRUE(isDeviationName("totdev"));
   // too short to form any term: no points, no crash

@@ -61,9 +61,11 @@ struct DeviationOptions {
   bool compute_edf = true;
   ChiSquareConvention chi2 = ChiSquareConvention::Exact;
   /// mtotdev/ttotdev cost work = 3m (N - 3m + 1) term evaluations per tau (N phase points of a segment). Above
-  /// this budget the window starts are taken every s-th sample, s = ceil(work / mtot_max_work) <= 3 m N /
-  /// mtot_max_work (below m/8 for N <= 1.1e7 at the default; DeviationPoint::stride reports s); 0 = always exact.
-  int64_t mtot_max_work = int64_t(1) << 28;
+  /// the budget the window starts are taken every s-th sample, s = ceil(work / budget) (DeviationPoint::stride
+  /// reports s). kMtotAutoBudget (default): budget = max(2^26, 24 N), so s <= ceil(m/8) and the cost per tau is
+  /// at most ~24 N evaluations (~25 OADEV points); 0 = always exact; > 0: that budget.
+  static constexpr int64_t kMtotAutoBudget = -1;
+  int64_t mtot_max_work = kMtotAutoBudget;
 };
 
 /// Names accepted by computeDeviation.

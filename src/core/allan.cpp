@@ -257,13 +257,14 @@ void sumsTotdev(const double* x, int64_t n, int64_t m, SegmentSums* s) {
 /// plus s times a constant per j, and P is built once per block (relative to a straight line through the block,
 /// which the terms are blind to, so its values stay small). sumsq accumulates sum over windows and the 6m terms
 /// of (m z_j)^2; the window count N - 3m + 1 is the Stable32 "#". Cost ~L per window plus ~2 per sample per
-/// block: O(N m) per tau. With max_work > 0 and L * windows > max_work, windows start every stride-th sample
-/// and the mean over them stands for the mean over all windows.
+/// block: O(N m) per tau. With max_work > 0 (kMtotAutoBudget: max(2^26, 24 n)) and L * windows > max_work,
+/// windows start every stride-th sample and the mean over them stands for the mean over all windows.
 void sumsMtotdev(const double* x, int64_t n, int64_t m, int64_t max_work, SegmentSums* s) {
   const int64_t L = 3 * m;
   if (n < L) return;
   const int64_t nwin = n - L + 1;
   int64_t stride = 1;
+  if (max_work == DeviationOptions::kMtotAutoBudget) max_work = std::max<int64_t>(int64_t(1) << 26, 24 * n);
   if (max_work > 0) {
     const long double work = static_cast<long double>(nwin) * L;
     if (work > max_work) stride = static_cast<int64_t>(std::ceil(work / max_work));
@@ -486,7 +487,8 @@ void checkCommon(double tau0, const DeviationOptions& options) {
   if (!(tau0 > 0) || !std::isfinite(tau0)) throw std::invalid_argument("computeDeviation: tau0 must be finite and > 0");
   if (options.compute_edf && !(options.confidence > 0 && options.confidence < 1))
     throw std::invalid_argument("computeDeviation: confidence must be in (0,1)");
-  if (options.mtot_max_work < 0) throw std::invalid_argument("computeDeviation: mtot_max_work must be >= 0");
+  if (options.mtot_max_work < DeviationOptions::kMtotAutoBudget)
+    throw std::invalid_argument("computeDeviation: mtot_max_work must be >= 0 (or kMtotAutoBudget)");
 }
 
 DeviationCurve computeImpl(const std::string& name, const std::vector<const std::vector<double>*>& segments,

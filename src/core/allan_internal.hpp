@@ -25,7 +25,7 @@ struct SegmentSums {
 DevKind devKindFromName(const std::string& name);
 int64_t deviationMaxFactor(DevKind kind, int64_t n_phase);
 /// Adds the segment's squared differences at factor m. mtot_max_work: work budget of mtotdev/ttotdev
-/// (DeviationOptions::mtot_max_work; 0 = exact), ignored by the other kinds.
+/// (DeviationOptions::mtot_max_work; 0 = exact, kMtotAutoBudget), ignored by the other kinds.
 void accumulateSegment(DevKind kind, const double* x, int64_t n, int64_t m, SegmentSums* s,
                        int64_t mtot_max_work = 0);
 double varianceFromSums(DevKind kind, const SegmentSums& s, int64_t m, double tau0);
