@@ -83,8 +83,9 @@ struct WarmupFit {
 };
 WarmupFit fitWarmup(const std::vector<double>& block_means, double block_s, double theta_min, double theta_max);
 
-/// Impulsive outliers: samples more than z_min robust sigmas (MAD of first differences / sqrt 2 / 0.6745) away from
-/// the median of their +-half_window neighbours.
+/// Impulsive outliers: samples more than z_min robust sigmas away from the median of their +-half_window neighbours;
+/// robust sigma = median of those distances over at most 2^18 evenly spaced samples / 0.6745. Only windows whose
+/// range exceeds z_min robust sigmas are examined sample by sample (O(n) for ordinary noise).
 struct Outliers {
   std::vector<int64_t> index;
   double sum_sq_area = 0;   ///< sum over outliers of ((x - local median) * tau0)^2

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <complex>
+#include <deque>
 #include <stdexcept>
 #include <string>
 
@@ -358,40 +359,50 @@ Outliers detectOutliers(const std::vector<double>& x, double tau0, double z_min,
   if (half_window < 1) throw std::invalid_argument("detectOutliers: half_window must be >= 1");
   const int64_t n = static_cast<int64_t>(x.size());
   if (n < 2 * half_window + 2) return out;
-  std::vector<double> dev(n);
-  // Running median of the neighbours: a sorted copy of the window x[lo, hi) is updated by one insertion and one
-  // removal per step; positions come from branch-free counts (the window holds at most 2 half_window + 1 values),
-  // and the sample itself is skipped by rank.
-  std::vector<double> sorted;
-  sorted.reserve(static_cast<size_t>(2 * half_window + 2));
-  auto countBelow = [&sorted](double v) {
-    size_t c = 0;
-    for (double e : sorted) c += e < v;
-    return c;
+  // Distance of sample i from the median of its +-half_window neighbours (the window is cut at the ends).
+  std::vector<double> win;
+  auto devAt = [&](int64_t i) {
+    const int64_t lo = std::max<int64_t>(0, i - half_window), hi = std::min<int64_t>(n, i + half_window + 1);
+    win.clear();
+    for (int64_t j = lo; j < hi; ++j)
+      if (j != i) win.push_back(x[static_cast<size_t>(j)]);
+    const size_t k = win.size() / 2;
+    std::nth_element(win.begin(), win.begin() + static_cast<long>(k), win.end());
+    double med = win[k];
+    if (win.size() % 2 == 0) med = 0.5 * (med + *std::max_element(win.begin(), win.begin() + static_cast<long>(k)));
+    return x[static_cast<size_t>(i)] - med;
   };
-  int64_t lo = 0, hi = 0;
-  for (int64_t i = 0; i < n; ++i) {
-    const int64_t new_lo = std::max<int64_t>(0, i - half_window), new_hi = std::min<int64_t>(n, i + half_window + 1);
-    for (; hi < new_hi; ++hi) {
-      const double v = x[static_cast<size_t>(hi)];
-      sorted.insert(sorted.begin() + static_cast<long>(countBelow(v)), v);
-    }
-    for (; lo < new_lo; ++lo) sorted.erase(sorted.begin() + static_cast<long>(countBelow(x[static_cast<size_t>(lo)])));
-    const size_t self = countBelow(x[static_cast<size_t>(i)]);
-    const size_t c = sorted.size() - 1;  // neighbours
-    auto rank = [&](size_t r) { return sorted[r < self ? r : r + 1]; };
-    const size_t k = c / 2;
-    const double med = c % 2 ? rank(k) : 0.5 * (rank(k - 1) + rank(k));
-    dev[static_cast<size_t>(i)] = x[static_cast<size_t>(i)] - med;
+  // Robust sigma: median absolute distance of at most 2^18 evenly spaced samples / 0.6745 (statistically the same as
+  // all of them: the MAD of 2^18 values is within ~0.3 %).
+  {
+    const int64_t step = std::max<int64_t>(1, n >> 18);
+    std::vector<double> ad;
+    ad.reserve(static_cast<size_t>(n / step + 1));
+    for (int64_t i = 0; i < n; i += step) ad.push_back(std::fabs(devAt(i)));
+    out.robust_sigma = median(std::move(ad)) / 0.6745;
   }
-  std::vector<double> ad(n);
-  for (int64_t i = 0; i < n; ++i) ad[i] = std::fabs(dev[i]);
-  out.robust_sigma = median(ad) / 0.6745;
   if (!(out.robust_sigma > 0)) return out;
+  const double limit = z_min * out.robust_sigma;
+  // A sample whose window (itself included) spans at most `limit` cannot be farther than that from the window's
+  // median: only windows with a larger range (sliding max and min, monotone queues) get the exact median.
+  std::deque<int64_t> qmax, qmin;  // indices in the window, values decreasing / increasing
+  int64_t next = 0;                 // next index to enter the window
   for (int64_t i = 0; i < n; ++i) {
-    if (ad[i] > z_min * out.robust_sigma) {
+    const int64_t lo = std::max<int64_t>(0, i - half_window), hi = std::min<int64_t>(n, i + half_window + 1);
+    for (; next < hi; ++next) {
+      const double v = x[static_cast<size_t>(next)];
+      while (!qmax.empty() && x[static_cast<size_t>(qmax.back())] <= v) qmax.pop_back();
+      qmax.push_back(next);
+      while (!qmin.empty() && x[static_cast<size_t>(qmin.back())] >= v) qmin.pop_back();
+      qmin.push_back(next);
+    }
+    while (qmax.front() < lo) qmax.pop_front();
+    while (qmin.front() < lo) qmin.pop_front();
+    if (x[static_cast<size_t>(qmax.front())] - x[static_cast<size_t>(qmin.front())] <= limit) continue;
+    const double d = devAt(i);
+    if (std::fabs(d) > limit) {
       out.index.push_back(i);
-      out.sum_sq_area += (dev[i] * tau0) * (dev[i] * tau0);
+      out.sum_sq_area += (d * tau0) * (d * tau0);
     }
   }
   return out;

@@ -219,9 +219,15 @@ SplitAngleFactors splitAngleFactors(const Wavelet& w, int level) {
   return f;
 }
 
-int automaticSplitLevel(const std::vector<double>& rate, double tau0, const Wavelet& w) {
-  (void)tau0;
-  const LevelData d = levelVariances(rate, w, 32);
+namespace {
+
+/// automaticSplitLevel on already computed level variances (levels with >= 32 interior coefficients are used).
+int splitLevelFrom(const LevelData& all) {
+  LevelData d;
+  for (size_t j = 0; j < all.var.size() && all.count[j] >= 32; ++j) {
+    d.var.push_back(all.var[j]);
+    d.count.push_back(all.count[j]);
+  }
   const int J = static_cast<int>(d.var.size());
   if (J < 6) throw std::invalid_argument("wavelet split: record too short for an automatic level (need >= 6 levels)");
   const double plateau = median({d.var[J - 1], d.var[J - 2], d.var[J - 3]});
@@ -233,6 +239,13 @@ int automaticSplitLevel(const std::vector<double>& rate, double tau0, const Wave
     }
   }
   return std::max(1, std::min(jc - 1, J - 4));
+}
+
+}  // namespace
+
+int automaticSplitLevel(const std::vector<double>& rate, double tau0, const Wavelet& w) {
+  (void)tau0;
+  return splitLevelFrom(levelVariances(rate, w, 32));
 }
 
 WaveletSplitResult waveletSplit(const std::vector<double>& rate, double tau0, const WaveletSplitOptions& options,
@@ -251,7 +264,10 @@ WaveletSplitResult waveletSplit(const std::vector<double>& rate, double tau0, co
 
   WaveletSplitResult r;
   r.wavelet = options.wavelet;
-  r.level = options.level > 0 ? options.level : automaticSplitLevel(rate, tau0, w);
+  // Wavelet variances of the input (all levels with >= 8 interior coefficients): one deep decomposition serves the
+  // automatic level (its levels with >= 32 coefficients, the same numbers as a separate decomposition) and N.
+  const LevelData lv = levelVariances(rate, w, 8);
+  r.level = options.level > 0 ? options.level : splitLevelFrom(lv);
   r.split_frequency_hz = 1.0 / (tau0 * std::ldexp(2.0, r.level));
 
   // 1. The split.
@@ -301,7 +317,6 @@ WaveletSplitResult waveletSplit(const std::vector<double>& rate, double tau0, co
   }
 
   // 4. Wavelet variances of the input and their responses.
-  const LevelData lv = levelVariances(rate, w, 8);
   const int J = static_cast<int>(lv.var.size());
   const auto resp = waveletLevelResponses(w, std::max(1, J), tau0);
   const SplitAngleFactors fac = splitAngleFactors(w, r.level);
