@@ -103,7 +103,9 @@ std::vector<std::array<double, kNumTerms>> levelResponsesUnit(const Wavelet& w, 
   std::vector<std::array<double, kNumTerms>> out(static_cast<size_t>(max_level));
   std::vector<double> phi{1.0};  // scaling function of level j-1
   // Frequency grid for the flicker and random-walk integrals: nu = 2^-j u, u in (0, 8], midpoint rule.
-  const int nu_pts = 16000;
+  // 4000 midpoints: the integrands are smooth and periodic-like on the grid, so the rule converges fast (4000 and
+  // 16000 points give the same responses to 5e-9 at level 1 and 1e-12 above).
+  const int nu_pts = 4000;
   const double u_max = 8.0;
   for (int j = 1; j <= max_level; ++j) {
     const int64_t step = int64_t(1) << (j - 1);
