@@ -239,12 +239,14 @@ struct FeatureExcess {
 };
 
 // Measures the whole feature around f0 (half-power width w), tails included. The floor under it is
-// a + b cos(2 pi f tau0), the PSD of white noise through a one-sample filter (MA(1)): on the ADIS16405 x/y axes it
-// matches the PSD from 1 Hz to Nyquist within 1 %; over a few widths it is simply a smooth 2-parameter trend. The
-// floor is fitted by least squares on flanks beyond the current extent (as wide as the feature, >= 4 w each side);
-// the extent then grows by blocks of max(8, w/2) bins while a block's mean stands above the floor by more than 3
-// sigma of a Welch block mean (relative sigma sqrt(1.5 / (segments x bins)), Hann: 1.5 bins per independent value);
-// repeated until the extent no longer changes. Starting extent f0 +- 2 w.
+// a + b cos(2 pi f tau0): the PSD of the model's own short-tau noise, white rate noise (N), white angle noise seen
+// as rate differences (Q) and a one-sample filter (MA(1), the short-correlation term) all have that shape over the
+// whole band (on the ADIS16405 x/y gyros it matches the PSD from 1 Hz to Nyquist within 1 %). It is fitted by least
+// squares on every bin outside the current extent (a fit on local flanks let a long tail tilt the floor and cut the
+// extent short: chi2/dof 4.4 instead of 0.6 on a simulated 5 Hz feature); the extent then grows by blocks of
+// max(8, w/2) bins while a block's mean stands above the floor by more than 3 sigma of a Welch block mean (relative
+// sigma sqrt(1.5 / (segments x bins)), Hann: 1.5 bins per independent value); repeated until the extent no longer
+// changes. Starting extent f0 +- 2 w.
 FeatureExcess measureFeatureExcess(const Psd& ps, double f0, double w, double tau0) {
   FeatureExcess fe;
   const size_t nb = ps.f.size();
@@ -260,11 +262,10 @@ FeatureExcess measureFeatureExcess(const Psd& ps, double f0, double w, double ta
   auto floorAt = [&](double f) { return a + b * std::cos(2 * M_PI * f * tau0); };
   for (int it = 0; it < 12; ++it) {
     fe.iterations = it + 1;
-    const double L = std::max(4 * w, hi - lo);
     double sw = 0, sx = 0, sxx = 0, sy = 0, sxy = 0;
     for (size_t i = first; i < nb; ++i) {
       const double f = ps.f[i];
-      if (!((f >= lo - L && f < lo) || (f > hi && f <= hi + L))) continue;
+      if (f >= lo && f <= hi) continue;
       const double x = std::cos(2 * M_PI * f * tau0);
       sw += 1;
       sx += x;
@@ -502,13 +503,16 @@ ModelCheck checkModel(const std::vector<double>& rate, double tau0, const Deviat
       const Psd psd = welchPsd(rate, fs, seg, 0.5);
       for (const auto& pk : findPsdPeaks(psd, opts.psd_min_prominence_db, opts.psd_max_peaks)) all.push_back(pk);
     }
-    // Merge duplicates: the same feature found at both resolutions. A feature no wider than 4 bins of the PSD it
-    // was found in is a line (sinusoid); wider ones are narrowband oscillations.
+    // Merge duplicates: the same feature found at both resolutions. A feature no wider than 4 bins of the finest PSD
+    // it was found in is a line (sinusoid); wider ones are narrowband oscillations (a 0.3 Hz wide feature is 3
+    // coarse bins but 100 fine ones: not a line).
     std::sort(all.begin(), all.end(), [](const SpectralPeak& a, const SpectralPeak& b) { return a.df < b.df; });
     std::vector<SpectralPeak> kept;
+    std::vector<bool> kept_broad;  // wider than 4 bins at the finest resolution it was seen at: not a line
     for (const auto& pk : all) {
       bool dup = false;
-      for (auto& k : kept) {
+      for (size_t j = 0; j < kept.size(); ++j) {
+        SpectralPeak& k = kept[j];
         const double sep = std::fabs(k.frequency_hz - pk.frequency_hz);
         if (sep <= std::max({k.bandwidth_hz, pk.bandwidth_hz, 2 * pk.df})) {
           dup = true;
@@ -517,18 +521,50 @@ ModelCheck checkModel(const std::vector<double>& rate, double tau0, const Deviat
           break;
         }
       }
-      if (!dup) kept.push_back(pk);
+      if (!dup) {
+        kept.push_back(pk);
+        kept_broad.push_back(pk.bandwidth_hz > 4 * pk.df);
+      }
     }
     // Broad features: measure the whole excess, tails included, over an MA(1)-shaped floor on a mid-resolution PSD
     // (>= ~250 segments, so each bin is within ~6 %; measureFeatureExcess).
+    // A feature narrower than 16 bins of that PSD gets a finer one (down to ~64 segments), so that its shape is
+    // resolved rather than the Hann window's.
     const int64_t mid = std::min<int64_t>(8192, pow2Below(n / 128));
-    std::unique_ptr<Psd> mid_psd;
+    std::map<int64_t, Psd> mid_psd;
+    auto psdFor = [&](int64_t seg) -> const Psd& {
+      auto it = mid_psd.find(seg);
+      if (it == mid_psd.end()) it = mid_psd.emplace(seg, welchPsd(rate, fs, seg, 0.5)).first;
+      return it->second;
+    };
     std::vector<FeatureExcess> excess(kept.size());
+    auto segFor = [&](double width) {
+      int64_t seg = mid;
+      while (seg < pow2Below(n / 32) && fs / seg > width / 16) seg *= 2;
+      return seg;
+    };
     for (size_t k = 0; k < kept.size(); ++k) {
       const SpectralPeak& pk = kept[k];
-      if (pk.bandwidth_hz <= 4 * pk.df || mid <= coarse || mid < 64) continue;
-      if (!mid_psd) mid_psd.reset(new Psd(welchPsd(rate, fs, mid, 0.5)));
-      excess[k] = measureFeatureExcess(*mid_psd, pk.frequency_hz, pk.bandwidth_hz, tau0);
+      if (!kept_broad[k] && pk.bandwidth_hz <= 4 * pk.df) {
+        // Seen only as a line on a coarse PSD (a feature broader than the running median of the fine one is not
+        // found there): its half-power width on a PSD resolving it decides.
+        const int64_t seg = segFor(pk.bandwidth_hz);
+        if (seg < 64 || fs / seg >= pk.df / 2) continue;
+        const FeatureExcess fe = measureFeatureExcess(psdFor(seg), pk.frequency_hz, pk.bandwidth_hz, tau0);
+        if (!fe.ok) continue;
+        size_t top = 0;
+        for (size_t i = 1; i < fe.power.size(); ++i)
+          if (fe.power[i] > fe.power[top]) top = i;
+        size_t a = top, b = top;
+        while (a > 0 && fe.power[a - 1] >= 0.5 * fe.power[top]) --a;
+        while (b + 1 < fe.power.size() && fe.power[b + 1] >= 0.5 * fe.power[top]) ++b;
+        if (static_cast<double>(b - a + 1) <= 4.0) continue;  // a line there too
+        kept_broad[k] = true;
+        kept[k].bandwidth_hz = (b - a + 1) * fe.df;
+      }
+      const int64_t seg = segFor(pk.bandwidth_hz);
+      if (seg <= coarse || seg < 64) continue;
+      excess[k] = measureFeatureExcess(psdFor(seg), pk.frequency_hz, kept[k].bandwidth_hz, tau0);
     }
     // The curve's taus, where the fits evaluate the bases: a narrowband basis is tabulated there once.
     auto curve_taus = std::make_shared<std::vector<double>>();
@@ -538,7 +574,7 @@ ModelCheck checkModel(const std::vector<double>& rate, double tau0, const Deviat
       const SpectralPeak& pk = kept[k];
       if (pk.frequency_hz <= 0 || pk.frequency_hz >= fs / 2) continue;
       Candidate c;
-      const bool line = pk.bandwidth_hz <= 4 * pk.df;
+      const bool line = !kept_broad[k] && pk.bandwidth_hz <= 4 * pk.df;
       c.type = line ? "sinusoid" : "narrowband";
       c.nature = line ? Nature::Deterministic : Nature::Narrowband;
       char buf[512];
