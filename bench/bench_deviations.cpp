@@ -81,8 +81,7 @@ DEV_BENCH(tdev);
 DEV_BENCH(hdev);
 DEV_BENCH(ohdev);
 DEV_BENCH(totdev);
-// mtotdev is O(N m) per tau: above DeviationOptions::mtot_max_work (default 2^28 term evaluations per tau) its
-// windows are strided, so this measures the default (budgeted) cost; ttotdev costs the same.
+// mtotdev (exact, O(N) per tau from m = 8 on via fold sums; ttotdev costs the same).
 DEV_BENCH(mtotdev);
 BENCHMARK_CAPTURE(BM_Bias1e8, oadev, "oadev")->Unit(benchmark::kMillisecond)->Iterations(1);
 BENCHMARK_CAPTURE(BM_Bias1e8, mdev, "mdev")->Unit(benchmark::kMillisecond)->Iterations(1);

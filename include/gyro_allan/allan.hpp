@@ -38,7 +38,6 @@ struct DeviationPoint {
   int alpha = 0;        ///< power-law noise exponent used for the EDF (2 white PM ... -2 RW FM)
   double dev_lo = 0;    ///< lower confidence bound of dev (chi-squared, DeviationOptions::confidence)
   double dev_hi = 0;    ///< upper confidence bound of dev
-  int64_t stride = 1;   ///< mtotdev/ttotdev: window-start stride used (1 = exact; > 1 beyond the work budget)
 };
 
 struct DeviationCurve {
@@ -60,15 +59,10 @@ struct DeviationOptions {
   double confidence = 0.683;  ///< two-sided confidence of dev_lo/dev_hi
   bool compute_edf = true;
   ChiSquareConvention chi2 = ChiSquareConvention::Exact;
-  /// mtotdev/ttotdev cost work = 3m (N - 3m + 1) term evaluations per tau (N phase points of a segment). Above
-  /// the budget the window starts are taken every s-th sample, s = ceil(work / budget) (DeviationPoint::stride
-  /// reports s). kMtotAutoBudget (default): budget = max(2^26, 24 N), so s <= ceil(m/8) and the cost per tau is
-  /// at most ~24 N evaluations (~25 OADEV points); 0 = always exact; > 0: that budget.
-  static constexpr int64_t kMtotAutoBudget = -1;
-  int64_t mtot_max_work = kMtotAutoBudget;
 };
 
-/// Names accepted by computeDeviation.
+/// Names accepted by computeDeviation. mtotdev/ttotdev are exact and O(N) per tau but cost ~0.4 us per window
+/// and tau from m = 64 on (~250 times an OADEV point; docs/deviations.md).
 const std::vector<std::string>& deviationNames();
 bool isDeviationName(const std::string& name);
 

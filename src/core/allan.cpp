@@ -243,35 +243,157 @@ void sumsTotdev(const double* x, int64_t n, int64_t m, SegmentSums* s) {
   s->terms += n - 2;
 }
 
+/// From this averaging factor on, mtotdev uses the O(N) fold sums (below, the direct O(N m) loop is cheaper).
+constexpr int64_t kMtotFastFrom = 64;
+
+/// One term coef * q[sigma j + c] of a fold term (q: prefix sums of the detrended window, sigma in {-1, 0, 1}).
+struct FoldTerm {
+  double coef;
+  int sigma;
+  int64_t c;
+};
+
+/// For i = 0..count-1 and the window v[i..i+n-1]: corr[i] = sum_a (k0 + k1 a + k2 a^2) v[i+a], sum[i] = sum_a
+/// v[i+a], sumsq[i] = sum_a v[i+a]^2. Moments updated in O(1) per step (long double), recomputed from scratch
+/// every max(n, 64) steps.
+void slidingWindowMoments(const double* v, int64_t count, int64_t n, long double k0, long double k1, long double k2,
+                          std::vector<long double>* corr, std::vector<long double>* sum,
+                          std::vector<long double>* sumsq) {
+  corr->resize(static_cast<size_t>(count));
+  sum->resize(static_cast<size_t>(count));
+  sumsq->resize(static_cast<size_t>(count));
+  const int64_t refresh = std::max<int64_t>(n, 64);
+  long double m0 = 0, m1 = 0, m2 = 0, q = 0;
+  const long double nn = static_cast<long double>(n);
+  for (int64_t i = 0, next = 0; i < count; ++i) {
+    if (i == next) {
+      next += refresh;
+      m0 = m1 = m2 = q = 0;
+      for (int64_t a = 0; a < n; ++a) {
+        const long double va = v[i + a], al = static_cast<long double>(a);
+        m0 += va;
+        m1 += al * va;
+        m2 += al * al * va;
+        q += va * va;
+      }
+    } else {
+      // new window = old window shifted by one: a -> a - 1, minus v[i-1], plus v[i-1+n] at a = n - 1
+      const long double out_v = v[i - 1], in_v = v[i - 1 + n];
+      const long double n0 = m0 - out_v + in_v, n1 = m1 + nn * in_v, n2 = m2 + nn * nn * in_v;
+      m0 = n0;
+      m1 = n1 - n0;
+      m2 = n2 - 2 * n1 + n0;
+      q += in_v * in_v - out_v * out_v;
+    }
+    (*corr)[i] = k0 * m0 + k1 * m1 + k2 * m2;
+    (*sum)[i] = m0;
+    (*sumsq)[i] = q;
+  }
+}
+
+/// Sum over windows i = 0..nb-1 and j = ja..jb of z_{i,j}^2 with z_{i,j} = sum coef q_i[sigma j + c], where
+/// q_i[k] = P[i+k] - P[i] - k x_i - s_i k (k-1)/2 (P: prefix sums over the block, s_i the window's slope). The
+/// x_i and P[i] parts cancel (sum coef (sigma j + c) = 0 for every fold term), so z = F(i+j) + G(i-j) + K_i -
+/// s_i r_j with F, G fixed combinations of P values, K_i one of P[i], P[i+L], and r_j a quadratic in j. The
+/// square's parts: F^2, G^2, F, G summed over the window of j (sliding sums), the slope parts (sliding quadratic
+/// correlations) and the F G products over anti-diagonals (t = i+j, u = i-j: for each t the admissible i form an
+/// interval, so the G values form a stride-2 run, summed from prefix sums per parity). O(nb + jb - ja) instead of
+/// O(nb (jb - ja)).
+/// Buffers of foldRegimeSum, reused from block to block.
+struct FoldWorkspace {
+  std::vector<double> Fv, Gv;
+  std::vector<long double> CF, SF, QF, CG, SG, QG, PGp;
+};
+
+long double foldRegimeSum(const double* P, int64_t nb, const double* slope,
+                          const std::vector<FoldTerm>& terms, int64_t ja, int64_t jb, FoldWorkspace* ws) {
+  const int64_t nJ = jb - ja + 1;
+  if (nJ <= 0 || nb <= 0) return 0;
+  const int64_t span = nb + nJ - 1;
+  // F over t = i + j (stored at t - ja), G over u = i - j (stored at u + jb); window i uses [i, i + nJ)
+  std::vector<double>& Fv = ws->Fv;
+  std::vector<double>& Gv = ws->Gv;
+  Fv.assign(static_cast<size_t>(span), 0.0);
+  Gv.assign(static_cast<size_t>(span), 0.0);
+  double csum = 0;
+  long double r0 = 0, r1 = 0, r2 = 0;  // r_j = r0 + r1 j + r2 j^2 = sum coef T(sigma j + c), T(k) = k(k-1)/2
+  for (const auto& t : terms) {
+    csum += t.coef;
+    const long double cf = 0.5L * t.coef, c = static_cast<long double>(t.c);
+    if (t.sigma != 0) {
+      r2 += cf;
+      r1 += cf * t.sigma * (2 * c - 1);
+    }
+    r0 += cf * (c * c - c);
+    if (t.sigma == 1)
+      for (int64_t k = 0; k < span; ++k) Fv[k] += t.coef * P[k + ja + t.c];
+    if (t.sigma == -1)
+      for (int64_t k = 0; k < span; ++k) Gv[k] += t.coef * P[k - jb + t.c];
+  }
+  long double R1 = 0, R2 = 0;  // sums of r_j, r_j^2 over the j range
+  for (int64_t j = ja; j <= jb; ++j) {
+    const long double jj = static_cast<long double>(j), r = r0 + r1 * jj + r2 * jj * jj;
+    R1 += r;
+    R2 += r * r;
+  }
+  const long double ja_l = static_cast<long double>(ja), jb_l = static_cast<long double>(jb);
+  std::vector<long double>&CF = ws->CF, &SF = ws->SF, &QF = ws->QF, &CG = ws->CG, &SG = ws->SG, &QG = ws->QG;
+  // window i: F at i + a has j = ja + a: r = (r0 + r1 ja + r2 ja^2) + (r1 + 2 r2 ja) a + r2 a^2
+  slidingWindowMoments(Fv.data(), nb, nJ, r0 + r1 * ja_l + r2 * ja_l * ja_l, r1 + 2 * r2 * ja_l, r2, &CF, &SF, &QF);
+  // G at i + b has j = jb - b: r = (r0 + r1 jb + r2 jb^2) - (r1 + 2 r2 jb) b + r2 b^2
+  slidingWindowMoments(Gv.data(), nb, nJ, r0 + r1 * jb_l + r2 * jb_l * jb_l, -(r1 + 2 * r2 * jb_l), r2, &CG, &SG,
+                       &QG);
+  // the constant part K_i = kc P[i + c0] - csum P[i] (every fold term has at most one sigma = 0 term)
+  double kc = 0;
+  int64_t c0 = 0;
+  for (const auto& t : terms)
+    if (t.sigma == 0) {
+      kc = t.coef;
+      c0 = t.c;
+    }
+  long double total = 0;
+  for (int64_t i = 0; i < nb; ++i) {
+    const long double si = slope[i];
+    const long double k = static_cast<long double>(kc) * P[i + c0] - static_cast<long double>(csum) * P[i];
+    total += QF[i] + QG[i] + nJ * k * k + si * si * R2 + 2 * k * (SF[i] + SG[i]) - 2 * si * (k * R1 + CF[i] + CG[i]);
+  }
+  // F G products: F index T = i + a pairs with G index i + nJ - 1 - a = 2i + nJ - 1 - T, i in [lo, hi]
+  std::vector<long double>& PGp = ws->PGp;
+  PGp.resize(static_cast<size_t>(span));
+  for (int64_t k = 0; k < span; ++k) PGp[k] = Gv[k] + (k >= 2 ? PGp[k - 2] : 0.0L);
+  long double cross = 0;
+  for (int64_t T = 0; T < span; ++T) {
+    const int64_t lo = std::max<int64_t>(0, T - nJ + 1), hi = std::min<int64_t>(nb - 1, T);
+    if (lo > hi) continue;
+    const int64_t k1 = 2 * lo + nJ - 1 - T, k2 = 2 * hi + nJ - 1 - T;
+    cross += Fv[T] * (PGp[k2] - (k1 >= 2 ? PGp[k1 - 2] : 0.0L));
+  }
+  return total + 2 * cross;
+}
+
 /// Modified total variance (NIST SP1065 sec. 5.2.13; Howe & Vernotte, PTTI 1999). For every window of L = 3m
 /// phase points y = x[i..i+L-1]: remove the frequency offset estimated from the means of the first and the last
 /// h = floor(L/2) points, whose centres are c = ceil(L/2) apart (slope s = (mean_last - mean_first) / c); extend
 /// the window by uninverted even reflection at both ends to 9m points [rev y, y, rev y]; average the squares of
 /// its 6m second differences of m-point averages. The first 3m of them lie in [rev y, y] (left fold), the last
 /// 3m in [y, rev y], which is the left fold of rev y. Each fold sequence is a palindrome, so its terms satisfy
-/// Z_j = Z_{L-j}: only j = 0..floor(L/2) are evaluated (weights 1, 2, ..., 2, and 1 for j = L/2 when L is even).
+/// Z_j = Z_{L-j}: only j = 0..floor(L/2) count (weights 1, 2, ..., 2, and 1 for j = L/2 when L is even).
 /// With q the prefix sums of the detrended window, a left-fold term m z_j = B1 - 2 B2 + B3 is q[j] + 3q[m-j] -
 /// 3q[2m-j] + q[3m-j] for j <= m and q[j] - 3q[j-m] - 3q[2m-j] + q[3m-j] for m < j <= L/2; for rev y, q is
 /// replaced by q[L] - q[L-k]. Written with P, the prefix sums of x over a block of windows, q[k] = P[i+k] - P[i]
 /// - k x[i] - s k(k-1)/2: the x[i] terms cancel, the offset of P cancels, so each term is four or five P values
-/// plus s times a constant per j, and P is built once per block (relative to a straight line through the block,
-/// which the terms are blind to, so its values stay small). sumsq accumulates sum over windows and the 6m terms
-/// of (m z_j)^2; the window count N - 3m + 1 is the Stable32 "#". Cost ~L per window plus ~2 per sample per
-/// block: O(N m) per tau. With max_work > 0 (kMtotAutoBudget: max(2^26, 24 n)) and L * windows > max_work,
-/// windows start every stride-th sample and the mean over them stands for the mean over all windows.
-void sumsMtotdev(const double* x, int64_t n, int64_t m, int64_t max_work, SegmentSums* s) {
+/// plus s times a constant per j; P is built once per block, relative to a straight line through the block (which
+/// the terms cannot see), so its values stay small. For m < kMtotFastFrom the terms are summed directly (3m per
+/// window); from there on foldRegimeSum sums each fold and regime over all windows and j in O(windows + m).
+/// sumsq accumulates the sum over windows and the 6m terms of (m z_j)^2; the window count N - 3m + 1 is the
+/// Stable32 "#". Exact either way: O(N) per tau.
+void sumsMtotdev(const double* x, int64_t n, int64_t m, SegmentSums* s) {
   const int64_t L = 3 * m;
   if (n < L) return;
   const int64_t nwin = n - L + 1;
-  int64_t stride = 1;
-  if (max_work == DeviationOptions::kMtotAutoBudget) max_work = std::max<int64_t>(int64_t(1) << 26, 24 * n);
-  if (max_work > 0) {
-    const long double work = static_cast<long double>(nwin) * L;
-    if (work > max_work) stride = static_cast<int64_t>(std::ceil(work / max_work));
-  }
   const int64_t h = L / 2, c = (L + 1) / 2;
   const double inv_span = 1.0 / (static_cast<double>(h) * static_cast<double>(c));
-  const int64_t jmid = L / 2;            // last j evaluated (pairs with L - j)
+  const int64_t jmid = L / 2;            // last j that counts (pairs with L - j)
   const int64_t j1 = std::min(m, jmid);  // regime 1: j = 0..j1
   // slope coefficients per j: the terms applied to the ramp's prefix sums T(k) = k (k - 1) / 2
   auto T = [](int64_t k) { return 0.5L * static_cast<long double>(k) * static_cast<long double>(k - 1); };
@@ -285,14 +407,21 @@ void sumsMtotdev(const double* x, int64_t n, int64_t m, int64_t max_work, Segmen
       tr[j] = static_cast<double>(-4 * T(L) - T(3 * m - j) + 3 * T(4 * m - j) + 3 * T(m + j) - T(j));
     }
   }
-  // blocks of windows (a multiple of the stride) sharing one prefix-sum array
-  const int64_t block = stride * std::max<int64_t>(1, (std::max<int64_t>(2 * L, 4096) + stride - 1) / stride);
+  const bool fast = m >= kMtotFastFrom;
+  const std::vector<FoldTerm> left1 = {{1, 1, 0}, {3, -1, m}, {-3, -1, 2 * m}, {1, -1, 3 * m}};
+  const std::vector<FoldTerm> right1 = {{2, 0, L}, {-1, -1, 3 * m}, {-3, 1, 2 * m}, {3, 1, m}, {-1, 1, 0}};
+  const std::vector<FoldTerm> left2 = {{1, 1, 0}, {-3, 1, -m}, {-3, -1, 2 * m}, {1, -1, 3 * m}};
+  const std::vector<FoldTerm> right2 = {{-4, 0, L}, {-1, -1, 3 * m}, {3, -1, 4 * m}, {3, 1, m}, {-1, 1, 0}};
+  // blocks of 2L windows sharing one prefix-sum array: short enough that the block's phase, relative to a line,
+  // stays comparable to the terms (a block of 4096 windows lost 5e-8 at m = 8 on a random-walk FM record)
+  const int64_t block = std::max<int64_t>(64, std::min<int64_t>(2 * L, int64_t(1) << 18));
+  FoldWorkspace ws;
+  std::vector<double> slopes;
   std::vector<double> P;
   long double total = 0;
-  int64_t used = 0;
   for (int64_t i0 = 0; i0 < nwin; i0 += block) {
-    const int64_t iend = std::min(nwin, i0 + block);
-    const int64_t count = (iend - 1 - i0) + L;  // samples x[i0 .. i0+count-1] are used
+    const int64_t nb = std::min(nwin, i0 + block) - i0;
+    const int64_t count = (nb - 1) + L;  // samples x[i0 .. i0+count-1] are used
     const double x_ref = x[i0];
     const double b = count > 1 ? (x[i0 + count - 1] - x_ref) / static_cast<double>(count - 1) : 0.0;
     P.resize(static_cast<size_t>(count) + 1);
@@ -302,51 +431,50 @@ void sumsMtotdev(const double* x, int64_t n, int64_t m, int64_t max_work, Segmen
       acc += (x[i0 + k] - x_ref) - b * static_cast<double>(k);
       P[k + 1] = static_cast<double>(acc);
     }
-    for (int64_t i = i0; i < iend; i += stride) {
-      const double* p = P.data() + (i - i0);
+    const double* pp = P.data();
+    auto zl1 = [&](const double* p, double p0, double slope, int64_t j) {
+      return p[j] + 3.0 * p[m - j] - 3.0 * p[2 * m - j] + p[3 * m - j] - 2.0 * p0 - slope * tl[j];
+    };
+    auto zr1 = [&](const double* p, double pL, double slope, int64_t j) {
+      return 2.0 * pL - p[3 * m - j] - 3.0 * p[2 * m + j] + 3.0 * p[m + j] - p[j] - slope * tr[j];
+    };
+    auto zl2 = [&](const double* p, double p0, double slope, int64_t j) {
+      return p[j] - 3.0 * p[j - m] - 3.0 * p[2 * m - j] + p[3 * m - j] + 4.0 * p0 - slope * tl[j];
+    };
+    auto zr2 = [&](const double* p, double pL, double slope, int64_t j) {
+      return -4.0 * pL - p[3 * m - j] + 3.0 * p[4 * m - j] + 3.0 * p[m + j] - p[j] - slope * tr[j];
+    };
+    auto sq = [](double a, double b2) { return a * a + b2 * b2; };
+    // weight-1 terms (j = 0 and, L even, j = L/2) of every window, direct
+    long double ends = 0, all = 0;
+    slopes.resize(static_cast<size_t>(nb));
+    for (int64_t i = 0; i < nb; ++i) {
+      const double* p = pp + i;
       const double p0 = p[0], pL = p[L];
       const double slope = ((pL - p[L - h]) - (p[h] - p0)) * inv_span;
-      const double* t_l = tl.data();
-      const double* t_r = tr.data();
-      auto term1 = [&](int64_t j) {
-        const double zl = p[j] + 3.0 * p[m - j] - 3.0 * p[2 * m - j] + p[3 * m - j] - 2.0 * p0 - slope * t_l[j];
-        const double zr = 2.0 * pL - p[3 * m - j] - 3.0 * p[2 * m + j] + 3.0 * p[m + j] - p[j] - slope * t_r[j];
-        return zl * zl + zr * zr;
-      };
-      auto term2 = [&](int64_t j) {
-        const double zl = p[j] - 3.0 * p[j - m] - 3.0 * p[2 * m - j] + p[3 * m - j] + 4.0 * p0 - slope * t_l[j];
-        const double zr = -4.0 * pL - p[3 * m - j] + 3.0 * p[4 * m - j] + 3.0 * p[m + j] - p[j] - slope * t_r[j];
-        return zl * zl + zr * zr;
-      };
-      // weight 1: j = 0 and (L even) j = L/2; weight 2: the rest. Four accumulators break the add chain.
-      double ends = term1(0);
-      const int64_t last_inner = (L % 2 == 0) ? jmid - 1 : jmid;
-      if (L % 2 == 0) ends += jmid <= j1 ? term1(jmid) : term2(jmid);
-      double a0 = 0, a1 = 0, a2 = 0, a3 = 0;
-      const int64_t r1_end = std::min(j1, last_inner);  // regime 1: j = 1..r1_end
-      int64_t j = 1;
-      for (; j + 3 <= r1_end; j += 4) {
-        a0 += term1(j);
-        a1 += term1(j + 1);
-        a2 += term1(j + 2);
-        a3 += term1(j + 3);
-      }
-      for (; j <= r1_end; ++j) a0 += term1(j);
-      j = std::max<int64_t>(j1 + 1, 1);  // regime 2: j = j1+1..last_inner
-      for (; j + 3 <= last_inner; j += 4) {
-        a0 += term2(j);
-        a1 += term2(j + 1);
-        a2 += term2(j + 2);
-        a3 += term2(j + 3);
-      }
-      for (; j <= last_inner; ++j) a0 += term2(j);
-      total += ends + 2.0 * ((a0 + a1) + (a2 + a3));
-      ++used;
+      slopes[i] = slope;
+      double e = sq(zl1(p, p0, slope, 0), zr1(p, pL, slope, 0));
+      if (L % 2 == 0)
+        e += jmid <= j1 ? sq(zl1(p, p0, slope, jmid), zr1(p, pL, slope, jmid))
+                        : sq(zl2(p, p0, slope, jmid), zr2(p, pL, slope, jmid));
+      ends += e;
+      if (fast) continue;
+      double a = 0;  // all j = 0..L/2 (m < kMtotFastFrom: at most 11 of them)
+      for (int64_t j = 0; j <= j1; ++j) a += sq(zl1(p, p0, slope, j), zr1(p, pL, slope, j));
+      for (int64_t j = j1 + 1; j <= jmid; ++j) a += sq(zl2(p, p0, slope, j), zr2(p, pL, slope, j));
+      all += a;
     }
+    if (fast) {
+      const double* sl = slopes.data();
+      all = foldRegimeSum(pp, nb, sl, left1, 0, j1, &ws) + foldRegimeSum(pp, nb, sl, right1, 0, j1, &ws);
+      if (jmid > j1)
+        all += foldRegimeSum(pp, nb, sl, left2, j1 + 1, jmid, &ws) +
+               foldRegimeSum(pp, nb, sl, right2, j1 + 1, jmid, &ws);
+    }
+    total += 2 * all - ends;
   }
-  s->sumsq += used == nwin ? total : total * static_cast<long double>(nwin) / static_cast<long double>(used);
+  s->sumsq += total;
   s->terms += nwin;
-  s->stride = std::max(s->stride, stride);
 }
 
 }  // namespace
@@ -380,7 +508,7 @@ int64_t deviationMaxFactor(DevKind kind, int64_t n_phase) {
   return 0;
 }
 
-void accumulateSegment(DevKind kind, const double* x, int64_t n, int64_t m, SegmentSums* s, int64_t mtot_max_work) {
+void accumulateSegment(DevKind kind, const double* x, int64_t n, int64_t m, SegmentSums* s) {
   switch (kind) {
     case DevKind::Adev: sumsAdev(x, n, m, false, s); break;
     case DevKind::Oadev: sumsAdev(x, n, m, true, s); break;
@@ -390,7 +518,7 @@ void accumulateSegment(DevKind kind, const double* x, int64_t n, int64_t m, Segm
     case DevKind::Tdev: sumsMdev(x, n, m, s); break;
     case DevKind::Totdev: sumsTotdev(x, n, m, s); break;
     case DevKind::Mtotdev:
-    case DevKind::Ttotdev: sumsMtotdev(x, n, m, mtot_max_work, s); break;
+    case DevKind::Ttotdev: sumsMtotdev(x, n, m, s); break;
   }
 }
 
@@ -463,14 +591,13 @@ DeviationCurve computeOnSpans(DevKind dk, const std::string& name, const std::ve
     SegmentSums s;
     for (const auto& p : phases) {
       if (p.n < 2 || m > deviationMaxFactor(dk, p.n)) continue;
-      accumulateSegment(dk, p.x, p.n, m, &s, options.mtot_max_work);
+      accumulateSegment(dk, p.x, p.n, m, &s);
     }
     if (s.terms <= 0) continue;
     DeviationPoint pt;
     pt.m = m;
     pt.tau = static_cast<double>(m) * tau0;
     pt.n_terms = s.terms;
-    pt.stride = s.stride;
     pt.var = varianceFromSums(dk, s, m, tau0);
     pt.dev = std::sqrt(std::max(0.0, pt.var));
     if (options.compute_edf) {
@@ -487,8 +614,6 @@ void checkCommon(double tau0, const DeviationOptions& options) {
   if (!(tau0 > 0) || !std::isfinite(tau0)) throw std::invalid_argument("computeDeviation: tau0 must be finite and > 0");
   if (options.compute_edf && !(options.confidence > 0 && options.confidence < 1))
     throw std::invalid_argument("computeDeviation: confidence must be in (0,1)");
-  if (options.mtot_max_work < DeviationOptions::kMtotAutoBudget)
-    throw std::invalid_argument("computeDeviation: mtot_max_work must be >= 0 (or kMtotAutoBudget)");
 }
 
 DeviationCurve computeImpl(const std::string& name, const std::vector<const std::vector<double>*>& segments,

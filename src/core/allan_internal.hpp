@@ -19,15 +19,12 @@ struct PhaseSpan {
 struct SegmentSums {
   long double sumsq = 0;
   int64_t terms = 0;
-  int64_t stride = 1;  ///< mtotdev/ttotdev: largest window stride used over the segments (1 = exact)
 };
 
 DevKind devKindFromName(const std::string& name);
 int64_t deviationMaxFactor(DevKind kind, int64_t n_phase);
-/// Adds the segment's squared differences at factor m. mtot_max_work: work budget of mtotdev/ttotdev
-/// (DeviationOptions::mtot_max_work; 0 = exact, kMtotAutoBudget), ignored by the other kinds.
-void accumulateSegment(DevKind kind, const double* x, int64_t n, int64_t m, SegmentSums* s,
-                       int64_t mtot_max_work = 0);
+/// Adds the segment's squared differences (and their count) at factor m.
+void accumulateSegment(DevKind kind, const double* x, int64_t n, int64_t m, SegmentSums* s);
 double varianceFromSums(DevKind kind, const SegmentSums& s, int64_t m, double tau0);
 
 /// Power-law noise exponent alpha in [-2, 2] at averaging factor m (lag-1 ACF method, Riley & Greenhall);
