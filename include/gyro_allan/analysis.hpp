@@ -60,6 +60,34 @@ AxisAnalysis analyzeAxis(const std::string& axis, const std::vector<std::vector<
                          const AnalysisOptions& options,
                          const std::vector<std::vector<double>>* temperature = nullptr);
 
+/// analyzeAxis in stages, for callers that schedule the stages of several axes on their own threads (analyze_bag):
+/// prepare() validates and fits oadev; then split() (wavelet split) and check() (model check) may run concurrently
+/// with each other and with other axes' stages (each reads the samples and writes only its own part); finish()
+/// returns what analyzeAxis returns and frees the samples. Errors are thrown as analyzeAxis throws them.
+class AxisStages {
+ public:
+  AxisStages(std::string axis, std::vector<std::vector<double>> segments, double tau0, const AnalysisOptions& options,
+             const std::vector<std::vector<double>>* temperature = nullptr);
+  void prepare();
+  void split();
+  void check();
+  AxisAnalysis finish();
+  /// The analysis so far (after prepare: mean, oadev, fit).
+  const AxisAnalysis& partial() const { return a_; }
+
+ private:
+  std::string axis_;
+  std::vector<std::vector<double>> segments_;
+  double tau0_;
+  AnalysisOptions options_;
+  const std::vector<std::vector<double>>* temperature_;
+  AxisAnalysis a_;
+  DeviationCurve raw_oadev_;
+  size_t longest_ = 0;
+  bool prepared_ = false;
+  std::string split_note_, check_note_;
+};
+
 /// Gyro noise gets redder with tau (quantization, then ARW, flicker, rate random walk): a noise type identified as
 /// bluer than at a shorter tau is a misidentification of the lag-1 ACF method on few points (it can turn a random-walk
 /// point into white PM, whose EDF is a thousand times larger). Replaces each alpha by the running minimum over shorter

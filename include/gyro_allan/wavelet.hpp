@@ -134,6 +134,8 @@ struct AngleErrorStats {
   double half_mean_ratio = 0;
 };
 AngleErrorStats angleErrorStats(const std::vector<double>& angle);
+/// The same on angle[0, n) (e.g. an interior part of a longer series, without copying it).
+AngleErrorStats angleErrorStats(const double* angle, size_t n);
 
 namespace wavelet_detail {
 struct FilterEntry {

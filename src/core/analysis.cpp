@@ -36,8 +36,16 @@ void enforceRedderWithTau(DeviationCurve* curve, double confidence) {
   if (changed) fillConfidence(curve, confidence);
 }
 
-AxisAnalysis analyzeAxis(const std::string& axis, const std::vector<std::vector<double>>& segments, double tau0,
-                         const AnalysisOptions& options, const std::vector<std::vector<double>>* temperature) {
+AxisStages::AxisStages(std::string axis, std::vector<std::vector<double>> segments, double tau0,
+                       const AnalysisOptions& options, const std::vector<std::vector<double>>* temperature)
+    : axis_(std::move(axis)), segments_(std::move(segments)), tau0_(tau0), options_(options), temperature_(temperature) {}
+
+void AxisStages::prepare() {
+  const std::string& axis = axis_;
+  const std::vector<std::vector<double>>& segments = segments_;
+  const double tau0 = tau0_;
+  const AnalysisOptions& options = options_;
+  AxisAnalysis& a = a_;
   if (options.method != "auto" && options.method != "joint_fit" && options.method != "wavelet_split")
     throw std::invalid_argument("unknown method '" + options.method + "' (auto, joint_fit, wavelet_split)");
   if (options.method == "wavelet_split" && !options.wavelet_split)
@@ -47,7 +55,6 @@ AxisAnalysis analyzeAxis(const std::string& axis, const std::vector<std::vector<
     throw std::invalid_argument("confidence must be in (0, 1)");
   for (const auto& d : options.deviations)
     if (!isDeviationName(d)) throw std::invalid_argument("unknown deviation '" + d + "'");
-  AxisAnalysis a;
   a.axis = axis;
   a.rate_hz = 1.0 / tau0;
   long double sum = 0;
@@ -64,7 +71,7 @@ AxisAnalysis analyzeAxis(const std::string& axis, const std::vector<std::vector<
   a.mean = static_cast<double>(sum / a.samples);
   a.duration_s = static_cast<double>(a.samples) * tau0;
   a.oadev = computeDeviation("oadev", segments, options.input, tau0, options.deviation);
-  const DeviationCurve raw_oadev = a.oadev;  // as computed, for the wavelet split's own fit error
+  raw_oadev_ = a.oadev;  // as computed, for the wavelet split's own fit error
   enforceRedderWithTau(&a.oadev, options.deviation.confidence);
   if (a.oadev.points.empty())
     throw std::invalid_argument("axis " + axis + ": record too short for any Allan-variance point");
@@ -82,62 +89,59 @@ AxisAnalysis analyzeAxis(const std::string& axis, const std::vector<std::vector<
     a.fit = fitWithModelEdf(&weighted, options.fit, options.deviation.confidence);
   }
 
+
   // Stages that need contiguous raw samples run on the longest gap-free segment.
-  size_t longest = 0;
   for (size_t i = 1; i < segments.size(); ++i)
-    if (segments[i].size() > segments[longest].size()) longest = i;
-  const std::vector<double>& rate_seg = segments[longest];
+    if (segments[i].size() > segments[longest_].size()) longest_ = i;
   if (a.segments > 1)
     a.notes.push_back("wavelet split and model check use the longest gap-free segment (" +
-                      std::to_string(rate_seg.size()) + " of " + std::to_string(a.samples) + " samples)");
-  const bool rate_input = options.input == InputKind::Rate;
-  if (!rate_input && (options.wavelet_split || options.model_check))
+                      std::to_string(segments[longest_].size()) + " of " + std::to_string(a.samples) + " samples)");
+  if (options.input != InputKind::Rate && (options.wavelet_split || options.model_check))
     a.notes.push_back("wavelet split and model check need rate samples: skipped for angle input");
-  std::exception_ptr split_error;
-  auto runSplit = [&]() {
-    WaveletSplitOptions so = options.split;
-    so.deviation = options.deviation;
-    try {
-      // One gap-free segment: the split's curve of the raw samples is the one just computed (saves an oadev pass).
-      a.split = waveletSplit(rate_seg, tau0, so, a.segments == 1 ? &raw_oadev : nullptr);
-      a.has_split = true;
-    } catch (const std::invalid_argument& e) {
-      a.split.message = e.what();
-    } catch (...) {
-      split_error = std::current_exception();  // rethrown after the join
-    }
-  };
-  std::thread split_thread;
-  const bool run_split = rate_input && options.wavelet_split;
-  if (run_split && options.concurrent_stages && options.model_check) split_thread = std::thread(runSplit);
-  else if (run_split) runSplit();
-  // The model check writes only a.check / a.has_check; the split thread only a.split / a.has_split; notes are
-  // added after the join, in a fixed order.
-  std::string check_note;
-  if (rate_input && options.model_check && a.fit.ok) {
-    ModelCheckOptions co = options.check;
-    co.fit = options.fit;
-    const std::vector<double>* temp = nullptr;
-    if (temperature && longest < temperature->size() && (*temperature)[longest].size() == rate_seg.size())
-      temp = &(*temperature)[longest];
-    try {
-      a.check = checkModel(rate_seg, tau0, a.oadev, a.fit, co, temp);
-      a.has_check = a.check.ok;
-      if (!a.check.ok) check_note = "model check: " + a.check.message;
-    } catch (const std::invalid_argument& e) {
-      check_note = std::string("model check skipped: ") + e.what();
-    } catch (...) {
-      if (split_thread.joinable()) split_thread.join();
-      throw;
-    }
+  prepared_ = true;
+}
+
+void AxisStages::split() {
+  if (!prepared_) throw std::logic_error("AxisStages::split before prepare");
+  if (options_.input != InputKind::Rate || !options_.wavelet_split) return;
+  WaveletSplitOptions so = options_.split;
+  so.deviation = options_.deviation;
+  try {
+    // One gap-free segment: the split's curve of the raw samples is the one just computed (saves an oadev pass).
+    a_.split = waveletSplit(segments_[longest_], tau0_, so, a_.segments == 1 ? &raw_oadev_ : nullptr);
+    a_.has_split = true;
+    if (!a_.split.ok) split_note_ = "wavelet split: " + a_.split.message;
+  } catch (const std::invalid_argument& e) {
+    split_note_ = std::string("wavelet split skipped: ") + e.what();
   }
-  if (split_thread.joinable()) split_thread.join();
-  if (split_error) std::rethrow_exception(split_error);
-  if (run_split) {
-    if (!a.has_split) a.notes.push_back("wavelet split skipped: " + a.split.message);
-    else if (!a.split.ok) a.notes.push_back("wavelet split: " + a.split.message);
+}
+
+void AxisStages::check() {
+  if (!prepared_) throw std::logic_error("AxisStages::check before prepare");
+  if (options_.input != InputKind::Rate || !options_.model_check || !a_.fit.ok) return;
+  ModelCheckOptions co = options_.check;
+  co.fit = options_.fit;
+  const std::vector<double>& rate_seg = segments_[longest_];
+  const std::vector<double>* temp = nullptr;
+  if (temperature_ && longest_ < temperature_->size() && (*temperature_)[longest_].size() == rate_seg.size())
+    temp = &(*temperature_)[longest_];
+  try {
+    a_.check = checkModel(rate_seg, tau0_, a_.oadev, a_.fit, co, temp);
+    a_.has_check = a_.check.ok;
+    if (!a_.check.ok) check_note_ = "model check: " + a_.check.message;
+  } catch (const std::invalid_argument& e) {
+    check_note_ = std::string("model check skipped: ") + e.what();
   }
-  if (!check_note.empty()) a.notes.push_back(check_note);
+}
+
+AxisAnalysis AxisStages::finish() {
+  if (!prepared_) throw std::logic_error("AxisStages::finish before prepare");
+  std::vector<std::vector<double>>().swap(segments_);  // the samples are not needed any more
+  const std::string& axis = axis_;
+  const AnalysisOptions& options = options_;
+  AxisAnalysis& a = a_;
+  if (!split_note_.empty()) a.notes.push_back(split_note_);
+  if (!check_note_.empty()) a.notes.push_back(check_note_);
 
   // The answer.
   const bool split_ok = a.has_split && a.split.ok;
@@ -181,7 +185,36 @@ AxisAnalysis analyzeAxis(const std::string& axis, const std::vector<std::vector<
     a.final_model_var = a.fit.model_var;
     a.final_error = {a.fit.rms_log10, a.fit.chi2_dof, a.fit.n_rms};
   }
-  return a;
+  return std::move(a_);
+}
+
+AxisAnalysis analyzeAxis(const std::string& axis, const std::vector<std::vector<double>>& segments, double tau0,
+                         const AnalysisOptions& options, const std::vector<std::vector<double>>* temperature) {
+  AxisStages st(axis, segments, tau0, options, temperature);
+  st.prepare();
+  if (options.concurrent_stages && options.wavelet_split && options.model_check) {
+    // The split and the model check only read the samples and write their own members.
+    std::exception_ptr split_error;
+    std::thread t([&] {
+      try {
+        st.split();
+      } catch (...) {
+        split_error = std::current_exception();
+      }
+    });
+    try {
+      st.check();
+    } catch (...) {
+      t.join();
+      throw;
+    }
+    t.join();
+    if (split_error) std::rethrow_exception(split_error);
+  } else {
+    st.split();
+    st.check();
+  }
+  return st.finish();
 }
 
 }  // namespace gyro_allan

@@ -187,6 +187,7 @@ WdenResult wden(const std::vector<double>& x, const WdenOptions& options) {
     r.kept_fraction[k - 1] = d.empty() ? 0.0 : static_cast<double>(kept) / static_cast<double>(d.size());
   }
   r.denoised = waverec(coeffs, w, options.extension);
+  std::vector<std::vector<double>>().swap(coeffs);  // freed before the second reconstruction (long records)
   r.removed = waverec(removed, w, options.extension);
   r.denoised.resize(n);  // periodization of an odd signal reconstructs one extra sample
   r.removed.resize(n);
@@ -204,19 +205,21 @@ std::vector<double> removedAngle(const std::vector<double>& removed, double tau0
   return angle;
 }
 
-AngleErrorStats angleErrorStats(const std::vector<double>& angle) {
-  if (angle.size() < 2) throw std::invalid_argument("angleErrorStats: need at least 2 samples");
+AngleErrorStats angleErrorStats(const std::vector<double>& angle) { return angleErrorStats(angle.data(), angle.size()); }
+
+AngleErrorStats angleErrorStats(const double* angle, size_t n) {
+  if (n < 2) throw std::invalid_argument("angleErrorStats: need at least 2 samples");
   AngleErrorStats s;
-  const size_t n = angle.size();
   long double sum = 0, sum2 = 0;
-  for (double v : angle) sum += v;
+  for (size_t i = 0; i < n; ++i) sum += angle[i];
   s.mean = static_cast<double>(sum / n);
-  for (double v : angle) {
+  for (size_t i = 0; i < n; ++i) {
+    const double v = angle[i];
     sum2 += (v - s.mean) * (v - s.mean);
     s.max_abs = std::max(s.max_abs, std::fabs(v - s.mean));
   }
   s.std = static_cast<double>(std::sqrt(sum2 / (n - 1)));
-  s.end = angle.back();
+  s.end = angle[n - 1];
   long double h1 = 0, h2 = 0;
   for (size_t i = 0; i < n / 2; ++i) h1 += angle[i];
   for (size_t i = n / 2; i < n; ++i) h2 += angle[i];

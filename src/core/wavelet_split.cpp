@@ -69,15 +69,26 @@ LevelData levelVariances(const std::vector<double>& rate, const Wavelet& w, int 
   for (int64_t len = n; (len + F - 1) / 2 - 2 * F >= min_count; len = (len + F - 1) / 2) ++J;
   LevelData d;
   if (J < 1) return d;
-  const auto c = wavedec(rate, w, ExtensionMode::Symmetric, J);
+  // Level by level (the same coefficients as wavedec to level J), keeping only the current approximation.
+  DwtCoeffs c = dwt(rate, w, ExtensionMode::Symmetric);
   for (int j = 1; j <= J; ++j) {
-    const auto& dj = c[static_cast<size_t>(J - j + 1)];
+    if (j > 1) c = dwt(std::vector<double>(std::move(c.cA)), w, ExtensionMode::Symmetric);
+    const auto& dj = c.cD;
     const size_t b = static_cast<size_t>(F), e = dj.size() - static_cast<size_t>(F);
     d.var.push_back(meanSquare(dj, b, e));
     d.count.push_back(static_cast<int64_t>(e - b));
   }
   return d;
 }
+
+/// A read-only window of a longer series.
+struct AngleView {
+  const double* p;
+  size_t n;
+  const double* begin() const { return p; }
+  size_t size() const { return n; }
+  double operator[](size_t i) const { return p[i]; }
+};
 
 double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
@@ -331,8 +342,8 @@ WaveletSplitResult waveletSplit(const std::vector<double>& rate, double tau0, co
   const size_t margin = static_cast<size_t>((F - 1) * (std::ldexp(1.0, r.level) - 1) + 1 + std::ldexp(1.0, r.level));
   if (full_angle.size() < 4 * margin)
     throw std::invalid_argument("waveletSplit: record too short for split level " + std::to_string(r.level));
-  const std::vector<double> angle(full_angle.begin() + margin, full_angle.end() - margin);
-  r.removed_angle = angleErrorStats(angle);
+  const AngleView angle{full_angle.data() + margin, full_angle.size() - 2 * margin};  // interior, not copied
+  r.removed_angle = angleErrorStats(angle.begin(), angle.size());
   const double var_a = r.removed_angle.std * r.removed_angle.std;
   // Uncertainty of var(angle) by batch means over 64 blocks.
   double var_a_sigma = 0;

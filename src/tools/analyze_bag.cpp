@@ -10,12 +10,16 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <climits>
+#include <condition_variable>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <exception>
 #include <functional>
 #include <iostream>
+#include <memory>
+#include <mutex>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -309,6 +313,68 @@ void parallelFor(size_t n, int jobs, const std::function<void(size_t)>& task) {
     if (e) std::rethrow_exception(e);
 }
 
+/// Runs tasks on up to `jobs` threads (0 = one per core): task k starts once every task in deps[k] has finished,
+/// and a free thread always takes the ready task with the lowest index (so one thread runs them in index order).
+/// After a failure no new task starts; the failure of the lowest-index task is rethrown.
+void runTaskGraph(const std::vector<std::function<void()>>& tasks, const std::vector<std::vector<size_t>>& deps,
+                  int jobs) {
+  const size_t n = tasks.size();
+  size_t workers = jobs > 0 ? static_cast<size_t>(jobs) : std::max(1u, std::thread::hardware_concurrency());
+  workers = std::max<size_t>(1, std::min(workers, n));
+  std::mutex m;
+  std::condition_variable cv;
+  std::vector<int> state(n, 0);  // 0 waiting, 1 running, 2 done
+  std::vector<std::exception_ptr> errors(n);
+  size_t running = 0;
+  bool failed = false;
+  auto ready = [&](size_t k) {
+    for (size_t d : deps[k])
+      if (state[d] != 2) return false;
+    return true;
+  };
+  auto work = [&]() {
+    std::unique_lock<std::mutex> lock(m);
+    for (;;) {
+      size_t pick = n;
+      bool waiting = false;
+      for (size_t k = 0; k < n && !failed; ++k) {
+        if (state[k] != 0) continue;
+        waiting = true;
+        if (ready(k)) {
+          pick = k;
+          break;
+        }
+      }
+      if (pick == n) {
+        // Nothing to start now: leave if nothing ever will be (all started, a failure, or no task running that
+        // could make one ready), else wait for a task to finish.
+        if (!waiting || failed || running == 0) return;
+        cv.wait(lock);
+        continue;
+      }
+      state[pick] = 1;
+      ++running;
+      lock.unlock();
+      try {
+        tasks[pick]();
+      } catch (...) {
+        errors[pick] = std::current_exception();
+      }
+      lock.lock();
+      state[pick] = 2;
+      --running;
+      if (errors[pick]) failed = true;
+      cv.notify_all();
+    }
+  };
+  std::vector<std::thread> pool;
+  for (size_t w = 1; w < workers; ++w) pool.emplace_back(work);
+  work();
+  for (auto& th : pool) th.join();
+  for (const auto& e : errors)
+    if (e) std::rethrow_exception(e);
+}
+
 int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
         std::vector<AxisAnalysis>* accel_out = nullptr) {
   AnalysisOptions opt;
@@ -419,16 +485,37 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
                                 std::to_string(ss.report.input) + ")");
   const double tau0 = ss.report.nominal_period_s;
   const std::vector<std::vector<double>> temperature_segments = ss.interpolateSegments(temp_t, temp_v);
-  // Gyro axes one after the other (each holds a long record's working set); with --jobs >= 2 each runs its wavelet
-  // split and model check concurrently. Memory stays at one axis's working set.
+  // Gyro axes as a task graph on --jobs threads: per axis prepare (oadev + fit), then the wavelet split and the
+  // model check; a free thread takes the earliest ready stage, so axes are worked on in order and at most --jobs
+  // stages (not whole axes) hold working memory at a time.
   const size_t n_gyro = names.size();
   std::vector<AxisAnalysis> results(n_gyro);
   std::vector<std::vector<std::string>> axis_warnings(n_gyro);
-  opt.concurrent_stages = args.jobs != 1;
+  std::vector<std::unique_ptr<AxisStages>> stages(n_gyro);
+  std::vector<std::function<void()>> tasks;
+  std::vector<std::vector<size_t>> deps;
+  std::vector<double>().swap(ss.t);  // stamps are not needed any more (temperature already interpolated)
+  size_t last_split = SIZE_MAX;
   for (size_t a = 0; a < n_gyro; ++a) {
-    if (opt.input == InputKind::Rate) axis_warnings[a] = detectValueAnomalies(ss.v[a]).warnings("axis " + names[a]);
-    results[a] = analyzeAxis(names[a], ss.takeSegmentValues(static_cast<int>(a)), tau0, opt,
-                             temperature_segments.empty() ? nullptr : &temperature_segments);
+    const size_t prep = tasks.size();
+    tasks.push_back([&, a] {
+      if (opt.input == InputKind::Rate) axis_warnings[a] = detectValueAnomalies(ss.v[a]).warnings("axis " + names[a]);
+      stages[a] = std::make_unique<AxisStages>(names[a], ss.takeSegmentValues(static_cast<int>(a)), tau0, opt,
+                                               temperature_segments.empty() ? nullptr : &temperature_segments);
+      stages[a]->prepare();
+    });
+    deps.push_back({});
+    // Splits one at a time: the split holds the most memory (~3.5 records), so two never overlap.
+    tasks.push_back([&, a] { stages[a]->split(); });
+    deps.push_back(last_split == SIZE_MAX ? std::vector<size_t>{prep} : std::vector<size_t>{prep, last_split});
+    last_split = tasks.size() - 1;
+    tasks.push_back([&, a] { stages[a]->check(); });
+    deps.push_back({prep});
+  }
+  runTaskGraph(tasks, deps, args.jobs);
+  for (size_t a = 0; a < n_gyro; ++a) {
+    results[a] = stages[a]->finish();
+    stages[a].reset();
     releaseFreed();
     profileStage(("axis " + names[a]).c_str());
     // A gyro at rest reads Earth rate plus bias: hundreds of deg/s means wrong units or a moving sensor.
@@ -465,10 +552,13 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
         releaseFreed();
         accel_results.resize(3);
         accel_means.resize(3);
+        std::vector<double>().swap(sa.t);
         parallelFor(3, args.jobs, [&](size_t a) {
-          std::vector<std::vector<double>> segs = sa.segmentValues(static_cast<int>(a));
+          std::vector<std::vector<double>> segs = sa.takeSegmentValues(static_cast<int>(a));
           accel_means[a] = removeMean(&segs);
-          accel_results[a] = analyzeAxis("accel_" + names[a], segs, tau0, ao);
+          AxisStages st("accel_" + names[a], std::move(segs), tau0, ao);
+          st.prepare();
+          accel_results[a] = st.finish();  // joint fit only: no split or model check
         });
       } catch (const std::exception& e) {
         accel_results.clear();
