@@ -6,7 +6,7 @@ cd "$(dirname "$0")/.."
 export PATH=/usr/bin:/bin:$PATH   # a pyenv python3 earlier on PATH breaks catkin's configure
 targets=(all)
 if [ "${1:-}" = "--tests" ]; then
-  targets=(all tests)
+  targets=(all tests benchmarks)  # benchmarks are built (not run) so they cannot rot
   shift
 fi
 BUILD_DIR=${BUILD_DIR:-.build}
