@@ -11,10 +11,14 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <condition_variable>
 #include <cstdio>
 #include <cstring>
+#include <deque>
 #include <map>
+#include <mutex>
 #include <set>
+#include <thread>
 
 #include <bzlib.h>
 #include <roslz4/lz4s.h>
@@ -218,6 +222,70 @@ void readChunk(File* f, uint64_t pos, std::string* compressed, std::string* out)
   if (got != size) throw NotDirect{};
 }
 
+/// Reads and decompresses the given chunks on a second thread, a few ahead of the caller (decompression is about
+/// half of the reading time; the other half, parsing, overlaps with it).
+class ChunkPipeline {
+ public:
+  ChunkPipeline(const std::string& path, std::vector<uint64_t> positions)
+      : file_(path), positions_(std::move(positions)), thread_([this] { produce(); }) {}
+  ~ChunkPipeline() {
+    {
+      std::lock_guard<std::mutex> lock(m_);
+      stop_ = true;
+    }
+    cv_.notify_all();
+    thread_.join();
+  }
+  ChunkPipeline(const ChunkPipeline&) = delete;
+  ChunkPipeline& operator=(const ChunkPipeline&) = delete;
+  /// The next chunk's records; false after the last one. Throws NotDirect if a chunk could not be read.
+  bool next(std::string* out) {
+    std::unique_lock<std::mutex> lock(m_);
+    cv_.wait(lock, [this] { return !ready_.empty() || done_ || failed_; });
+    if (!ready_.empty()) {
+      out->swap(ready_.front());
+      ready_.pop_front();
+      cv_.notify_all();
+      return true;
+    }
+    if (failed_) throw NotDirect{};
+    return false;
+  }
+
+ private:
+  void produce() {
+    std::string compressed;
+    for (uint64_t pos : positions_) {
+      std::string chunk;
+      try {
+        readChunk(&file_, pos, &compressed, &chunk);
+      } catch (...) {
+        std::lock_guard<std::mutex> lock(m_);
+        failed_ = true;
+        cv_.notify_all();
+        return;
+      }
+      std::unique_lock<std::mutex> lock(m_);
+      cv_.wait(lock, [this] { return ready_.size() < kAhead || stop_; });
+      if (stop_) return;
+      ready_.push_back(std::move(chunk));
+      cv_.notify_all();
+    }
+    std::lock_guard<std::mutex> lock(m_);
+    done_ = true;
+    cv_.notify_all();
+  }
+
+  static constexpr size_t kAhead = 4;
+  File file_;
+  std::vector<uint64_t> positions_;
+  std::mutex m_;
+  std::condition_variable cv_;
+  std::deque<std::string> ready_;
+  bool done_ = false, failed_ = false, stop_ = false;
+  std::thread thread_;  // last: started after every other member exists
+};
+
 template <class M>
 void deserialize(const char* p, size_t n, M* msg) {
   ros::serialization::IStream s(reinterpret_cast<uint8_t*>(const_cast<char*>(p)), static_cast<uint32_t>(n));
@@ -284,7 +352,7 @@ bool readImuBagsDirect(const std::vector<std::string>& paths, const BagReadOptio
     sensor_msgs::Imu imu;  // reused for every message
     sensor_msgs::Temperature tm;
     std::vector<ros::Time> temp_abs;
-    std::string compressed, chunk;
+    std::string chunk;
     for (const auto& b : bags) {
       s.bags.push_back(b.path);
       // Wanted connections: 1 = IMU, 2 = temperature (skipped, like a failed instantiate, on a definition mismatch).
@@ -299,14 +367,19 @@ bool readImuBagsDirect(const std::vector<std::string>& paths, const BagReadOptio
             wanted[kv.first] = 2;
         }
       }
-      File f(b.path);
       ros::Time last;  // record times must not decrease (rosbag::View returns them sorted by time)
+      std::vector<uint64_t> positions;
+      std::vector<ros::Time> starts;
       for (const auto& ci : b.chunks) {
         bool any = false;
         for (const auto& kv : ci.counts) any = any || wanted.count(kv.first);
         if (!any) continue;  // nothing wanted in this chunk: not even decompressed
-        if (ci.start < last) return false;
-        readChunk(&f, ci.pos, &compressed, &chunk);
+        positions.push_back(ci.pos);
+        starts.push_back(ci.start);
+      }
+      ChunkPipeline pipeline(b.path, positions);
+      for (size_t c = 0; pipeline.next(&chunk); ++c) {
+        if (starts[c] < last) return false;
         const char* p = chunk.data();
         const char* end = p + chunk.size();
         while (p < end) {
