@@ -56,7 +56,7 @@ struct SanitizeOptions {
   size_t min_segment = 2;       ///< shorter segments are dropped (and counted in gaps)
 };
 
-/// Impulsive shocks and saturation on one rate axis. Robust centre and spread (median and MAD of at most ~1e6
+/// Impulsive shocks and saturation on one rate axis. Robust centre and spread (median and MAD of 2^18-2^19
 /// evenly spaced samples); a sample farther than max(10 robust sigma, min_rate) from the median is extreme; a run of
 /// >= 5 identical extreme values is saturation, other extreme samples are spikes (shocks). Samples are not removed:
 /// these are warnings for the user.
