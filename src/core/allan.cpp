@@ -253,58 +253,44 @@ struct FoldTerm {
   int64_t c;
 };
 
-/// For i = 0..count-1 and the window v[i..i+n-1]: corr[i] = sum_a (k0 + k1 a + k2 a^2) v[i+a], sum[i] = sum_a
-/// v[i+a], sumsq[i] = sum_a v[i+a]^2. Moments updated in O(1) per step (long double), recomputed from scratch
-/// every max(n, 64) steps.
-void slidingWindowMoments(const double* v, int64_t count, int64_t n, long double k0, long double k1, long double k2,
-                          std::vector<long double>* corr, std::vector<long double>* sum,
-                          std::vector<long double>* sumsq) {
-  corr->resize(static_cast<size_t>(count));
-  sum->resize(static_cast<size_t>(count));
-  sumsq->resize(static_cast<size_t>(count));
-  const int64_t refresh = std::max<int64_t>(n, 64);
+/// Moments of a sliding window v[i..i+n-1]: m_d = sum_a a^d v[i+a] (d = 0, 1, 2) and q = sum_a v[i+a]^2, in
+/// long double, moved by one in O(1) (reset() recomputes them from scratch).
+struct SlidingMoments {
   long double m0 = 0, m1 = 0, m2 = 0, q = 0;
-  const long double nn = static_cast<long double>(n);
-  for (int64_t i = 0, next = 0; i < count; ++i) {
-    if (i == next) {
-      next += refresh;
-      m0 = m1 = m2 = q = 0;
-      for (int64_t a = 0; a < n; ++a) {
-        const long double va = v[i + a], al = static_cast<long double>(a);
-        m0 += va;
-        m1 += al * va;
-        m2 += al * al * va;
-        q += va * va;
-      }
-    } else {
-      // new window = old window shifted by one: a -> a - 1, minus v[i-1], plus v[i-1+n] at a = n - 1
-      const long double out_v = v[i - 1], in_v = v[i - 1 + n];
-      const long double n0 = m0 - out_v + in_v, n1 = m1 + nn * in_v, n2 = m2 + nn * nn * in_v;
-      m0 = n0;
-      m1 = n1 - n0;
-      m2 = n2 - 2 * n1 + n0;
-      q += in_v * in_v - out_v * out_v;
+  void reset(const double* v, int64_t i, int64_t n) {
+    m0 = m1 = m2 = q = 0;
+    for (int64_t a = 0; a < n; ++a) {
+      const long double va = v[i + a], al = static_cast<long double>(a);
+      m0 += va;
+      m1 += al * va;
+      m2 += al * al * va;
+      q += va * va;
     }
-    (*corr)[i] = k0 * m0 + k1 * m1 + k2 * m2;
-    (*sum)[i] = m0;
-    (*sumsq)[i] = q;
   }
-}
+  /// From the window at i - 1 to the one at i: a -> a - 1, v[i-1] leaves, v[i-1+n] enters at a = n - 1.
+  void step(const double* v, int64_t i, int64_t n, long double nn, long double nn2) {
+    const long double out_v = v[i - 1], in_v = v[i - 1 + n];
+    const long double n0 = m0 - out_v + in_v, n1 = m1 + nn * in_v, n2 = m2 + nn2 * in_v;
+    m0 = n0;
+    m1 = n1 - n0;
+    m2 = n2 - 2 * n1 + n0;
+    q += in_v * in_v - out_v * out_v;
+  }
+};
+
+/// Buffers of foldRegimeSum, reused from block to block.
+struct FoldWorkspace {
+  std::vector<double> Fv, Gv;
+  std::vector<long double> PGp;
+};
 
 /// Sum over windows i = 0..nb-1 and j = ja..jb of z_{i,j}^2 with z_{i,j} = sum coef q_i[sigma j + c], where
 /// q_i[k] = P[i+k] - P[i] - k x_i - s_i k (k-1)/2 (P: prefix sums over the block, s_i the window's slope). The
 /// x_i and P[i] parts cancel (sum coef (sigma j + c) = 0 for every fold term), so z = F(i+j) + G(i-j) + K_i -
 /// s_i r_j with F, G fixed combinations of P values, K_i one of P[i], P[i+L], and r_j a quadratic in j. The
-/// square's parts: F^2, G^2, F, G summed over the window of j (sliding sums), the slope parts (sliding quadratic
-/// correlations) and the F G products over anti-diagonals (t = i+j, u = i-j: for each t the admissible i form an
-/// interval, so the G values form a stride-2 run, summed from prefix sums per parity). O(nb + jb - ja) instead of
-/// O(nb (jb - ja)).
-/// Buffers of foldRegimeSum, reused from block to block.
-struct FoldWorkspace {
-  std::vector<double> Fv, Gv;
-  std::vector<long double> CF, SF, QF, CG, SG, QG, PGp;
-};
-
+/// square's parts: F^2, G^2, F, G summed over the window of j and the slope parts (sliding moments, one pass),
+/// and the F G products over anti-diagonals (t = i+j, u = i-j: for each t the admissible i form an interval, so
+/// the G values form a stride-2 run, summed from prefix sums per parity). O(nb + jb - ja), not O(nb (jb - ja)).
 long double foldRegimeSum(const double* P, int64_t nb, const double* slope,
                           const std::vector<FoldTerm>& terms, int64_t ja, int64_t jb, FoldWorkspace* ws) {
   const int64_t nJ = jb - ja + 1;
@@ -337,12 +323,10 @@ long double foldRegimeSum(const double* P, int64_t nb, const double* slope,
     R2 += r * r;
   }
   const long double ja_l = static_cast<long double>(ja), jb_l = static_cast<long double>(jb);
-  std::vector<long double>&CF = ws->CF, &SF = ws->SF, &QF = ws->QF, &CG = ws->CG, &SG = ws->SG, &QG = ws->QG;
   // window i: F at i + a has j = ja + a: r = (r0 + r1 ja + r2 ja^2) + (r1 + 2 r2 ja) a + r2 a^2
-  slidingWindowMoments(Fv.data(), nb, nJ, r0 + r1 * ja_l + r2 * ja_l * ja_l, r1 + 2 * r2 * ja_l, r2, &CF, &SF, &QF);
+  const long double kf0 = r0 + r1 * ja_l + r2 * ja_l * ja_l, kf1 = r1 + 2 * r2 * ja_l;
   // G at i + b has j = jb - b: r = (r0 + r1 jb + r2 jb^2) - (r1 + 2 r2 jb) b + r2 b^2
-  slidingWindowMoments(Gv.data(), nb, nJ, r0 + r1 * jb_l + r2 * jb_l * jb_l, -(r1 + 2 * r2 * jb_l), r2, &CG, &SG,
-                       &QG);
+  const long double kg0 = r0 + r1 * jb_l + r2 * jb_l * jb_l, kg1 = -(r1 + 2 * r2 * jb_l);
   // the constant part K_i = kc P[i + c0] - csum P[i] (every fold term has at most one sigma = 0 term)
   double kc = 0;
   int64_t c0 = 0;
@@ -351,11 +335,24 @@ long double foldRegimeSum(const double* P, int64_t nb, const double* slope,
       kc = t.coef;
       c0 = t.c;
     }
+  // per window: F^2 + G^2 + nJ K^2 + s^2 R2 + 2 K (F + G) - 2 s (K R1 + r.F + r.G), sums over the j window
+  const int64_t refresh = std::max<int64_t>(nJ, 64);  // moments recomputed from scratch this often
+  const long double nn = static_cast<long double>(nJ), nn2 = nn * nn;
+  SlidingMoments f, g;
   long double total = 0;
-  for (int64_t i = 0; i < nb; ++i) {
+  for (int64_t i = 0, next = 0; i < nb; ++i) {
+    if (i == next) {
+      next += refresh;
+      f.reset(Fv.data(), i, nJ);
+      g.reset(Gv.data(), i, nJ);
+    } else {
+      f.step(Fv.data(), i, nJ, nn, nn2);
+      g.step(Gv.data(), i, nJ, nn, nn2);
+    }
+    const long double cf = kf0 * f.m0 + kf1 * f.m1 + r2 * f.m2, cg = kg0 * g.m0 + kg1 * g.m1 + r2 * g.m2;
     const long double si = slope[i];
     const long double k = static_cast<long double>(kc) * P[i + c0] - static_cast<long double>(csum) * P[i];
-    total += QF[i] + QG[i] + nJ * k * k + si * si * R2 + 2 * k * (SF[i] + SG[i]) - 2 * si * (k * R1 + CF[i] + CG[i]);
+    total += f.q + g.q + nn * k * k + si * si * R2 + 2 * k * (f.m0 + g.m0) - 2 * si * (k * R1 + cf + cg);
   }
   // F G products: F index T = i + a pairs with G index i + nJ - 1 - a = 2i + nJ - 1 - T, i in [lo, hi]
   std::vector<long double>& PGp = ws->PGp;
