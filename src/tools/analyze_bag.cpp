@@ -360,6 +360,7 @@ void runTaskGraph(const std::vector<std::function<void()>>& tasks, const std::ve
       } catch (...) {
         errors[pick] = std::current_exception();
       }
+      releaseFreed();  // each stage frees its working arrays; give the pages back before the next one starts
       lock.lock();
       state[pick] = 2;
       --running;
@@ -701,11 +702,6 @@ int main(int argc, char** argv) {
   // rosbag/cpp_common report parse problems through console_bridge before throwing: silence it so a corrupt bag
   // gives our one-line error only.
   console_bridge::setLogLevel(console_bridge::CONSOLE_BRIDGE_LOG_NONE);
-#ifdef __GLIBC__
-  // Long records are a few large arrays allocated and freed stage by stage: a fixed mmap threshold gives each back
-  // to the system when freed (glibc's adaptive threshold would move them into the heap, where freed space is kept).
-  mallopt(M_MMAP_THRESHOLD, 256 * 1024);
-#endif
   try {
     const Args args = parseArgs(argc, argv);
     return args.batch.empty() ? run(args) : runBatch(args);
