@@ -45,6 +45,9 @@ struct SanitizedSeries {
   std::vector<std::vector<double>> segmentValues(int axis) const;
   /// The same, moving the values out (v[axis] is empty afterwards): no second copy of a long record.
   std::vector<std::vector<double>> takeSegmentValues(int axis);
+  /// sanitizeCompact: input index of each kept sample, and the kept values of `axis` (an input axis) by segment.
+  std::vector<uint32_t> kept;
+  std::vector<std::vector<double>> segmentValuesOf(const CompactSeries& axis) const;
   /// A side series (e.g. temperature at 1 Hz: stamps ts, values vs, same time origin) linearly interpolated onto the
   /// kept stamps, split like the segments; held constant beyond its ends. Empty when it has no finite point.
   std::vector<std::vector<double>> interpolateSegments(const std::vector<double>& ts, const std::vector<double>& vs) const;
@@ -73,8 +76,9 @@ ValueAnomalies detectValueAnomalies(const std::vector<double>& v, double min_rat
 /// Sanitizes a multi-axis series (axes = 1..3 vectors of the same length as t).
 SanitizedSeries sanitize(const std::vector<double>& t, const std::vector<const std::vector<double>*>& axes,
                          const SanitizeOptions& options = {});
-/// The same for compactly stored axes (the bag reader's); the kept values come out as doubles.
+/// The same for compactly stored axes (the bag reader's), without copying values: `kept` holds the input index of
+/// every kept sample and `v` stays empty; segmentValuesOf() gathers one axis as doubles when it is needed.
 SanitizedSeries sanitizeCompact(const std::vector<double>& t, const std::vector<const CompactSeries*>& axes,
-                         const SanitizeOptions& options = {});
+                                const SanitizeOptions& options = {});
 
 }  // namespace gyro_allan

@@ -129,7 +129,7 @@ namespace {
 /// sanitize() for any axis container with size() and operator[] (std::vector<double>, CompactSeries).
 template <class Axis>
 SanitizedSeries sanitizeImpl(const std::vector<double>& t, const std::vector<const Axis*>& axes,
-                             const SanitizeOptions& options) {
+                             const SanitizeOptions& options, bool keep_values = true) {
   if (axes.empty() || axes.size() > 3) throw std::invalid_argument("sanitize: 1 to 3 axes expected");
   for (const auto* a : axes)
     if (!a || a->size() != t.size()) throw std::invalid_argument("sanitize: axis length differs from stamp count");
@@ -182,7 +182,11 @@ SanitizedSeries sanitizeImpl(const std::vector<double>& t, const std::vector<con
   }
   // Pass 2: keep strictly increasing stamps at least half a period apart; split at gaps.
   out.t.reserve(idx.size());
-  for (size_t a = 0; a < axes.size(); ++a) out.v[a].reserve(idx.size());
+  if (keep_values) {
+    for (size_t a = 0; a < axes.size(); ++a) out.v[a].reserve(idx.size());
+  } else {
+    out.kept.reserve(idx.size());
+  }
   bool have_prev = false;
   double prev = 0;
   size_t seg_start = 0;
@@ -197,6 +201,7 @@ SanitizedSeries sanitizeImpl(const std::vector<double>& t, const std::vector<con
           out.t.pop_back();
           for (auto& a : out.v)
             if (!a.empty()) a.pop_back();
+          if (!out.kept.empty()) out.kept.pop_back();
         }
         end = seg_start;
       }
@@ -233,7 +238,11 @@ SanitizedSeries sanitizeImpl(const std::vector<double>& t, const std::vector<con
       }
     }
     out.t.push_back(ti);
-    for (size_t a = 0; a < axes.size(); ++a) out.v[a].push_back((*axes[a])[i]);
+    if (keep_values) {
+      for (size_t a = 0; a < axes.size(); ++a) out.v[a].push_back((*axes[a])[i]);
+    } else {
+      out.kept.push_back(static_cast<uint32_t>(i));
+    }
     prev = ti;
     have_prev = true;
   }
@@ -278,8 +287,18 @@ SanitizedSeries sanitize(const std::vector<double>& t, const std::vector<const s
 }
 
 SanitizedSeries sanitizeCompact(const std::vector<double>& t, const std::vector<const CompactSeries*>& axes,
-                         const SanitizeOptions& options) {
-  return sanitizeImpl(t, axes, options);
+                                const SanitizeOptions& options) {
+  return sanitizeImpl(t, axes, options, false);
+}
+
+std::vector<std::vector<double>> SanitizedSeries::segmentValuesOf(const CompactSeries& axis) const {
+  std::vector<std::vector<double>> out;
+  for (const auto& s : segments) {
+    std::vector<double> v(s.size());
+    for (size_t i = s.begin; i < s.end; ++i) v[i - s.begin] = axis[kept[i]];
+    out.push_back(std::move(v));
+  }
+  return out;
 }
 
 }  // namespace gyro_allan

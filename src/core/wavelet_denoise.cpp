@@ -153,7 +153,7 @@ WdenResult wden(const std::vector<double>& x, const WdenOptions& options) {
   for (const auto& c : coeffs) total += c.size();
 
   std::vector<std::vector<double>> removed(coeffs.size());
-  removed[0].assign(coeffs[0].size(), 0.0);  // approximation kept whole
+  if (!options.removed_by_difference) removed[0].assign(coeffs[0].size(), 0.0);  // approximation kept whole
   for (int k = 1; k <= level; ++k) {
     std::vector<double>& d = detail(k);
     const double s = r.noise_sigma[k - 1];
@@ -176,11 +176,11 @@ WdenResult wden(const std::vector<double>& x, const WdenOptions& options) {
     thr *= s;
     r.thresholds[k - 1] = thr;
     auto& rem = removed[level - k + 1];
-    rem.resize(d.size());
+    if (!options.removed_by_difference) rem.resize(d.size());
     size_t kept = 0;
     for (size_t i = 0; i < d.size(); ++i) {
       const double t = wthresh(d[i], options.mode, thr);
-      rem[i] = d[i] - t;
+      if (!options.removed_by_difference) rem[i] = d[i] - t;
       d[i] = t;
       if (t != 0.0) ++kept;
     }
@@ -188,9 +188,14 @@ WdenResult wden(const std::vector<double>& x, const WdenOptions& options) {
   }
   r.denoised = waverec(coeffs, w, options.extension);
   std::vector<std::vector<double>>().swap(coeffs);  // freed before the second reconstruction (long records)
-  r.removed = waverec(removed, w, options.extension);
   r.denoised.resize(n);  // periodization of an odd signal reconstructs one extra sample
-  r.removed.resize(n);
+  if (options.removed_by_difference) {
+    r.removed.resize(n);
+    for (int64_t i = 0; i < n; ++i) r.removed[static_cast<size_t>(i)] = x[static_cast<size_t>(i)] - r.denoised[static_cast<size_t>(i)];
+  } else {
+    r.removed = waverec(removed, w, options.extension);
+    r.removed.resize(n);
+  }
   return r;
 }
 

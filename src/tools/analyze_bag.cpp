@@ -467,8 +467,7 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
   }
   SanitizedSeries ss;
   if (compact) {
-    ss = sanitizeCompact(t, {&gyro_c[0], &gyro_c[1], &gyro_c[2]}, so);
-    for (auto& v : gyro_c) v.clear();  // the kept samples live on in ss
+    ss = sanitizeCompact(t, {&gyro_c[0], &gyro_c[1], &gyro_c[2]}, so);  // kept indices; values stay compact
   } else {
     std::vector<const std::vector<double>*> ptrs;
     for (const auto& v : values) ptrs.push_back(&v);
@@ -500,8 +499,24 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
   for (size_t a = 0; a < n_gyro; ++a) {
     const size_t prep = tasks.size();
     tasks.push_back([&, a] {
-      if (opt.input == InputKind::Rate) axis_warnings[a] = detectValueAnomalies(ss.v[a]).warnings("axis " + names[a]);
-      stages[a] = std::make_unique<AxisStages>(names[a], ss.takeSegmentValues(static_cast<int>(a)), tau0, opt,
+      // This axis as doubles (its compact copy is freed), split into segments.
+      std::vector<std::vector<double>> segs;
+      if (compact) {
+        segs = ss.segmentValuesOf(gyro_c[a]);
+        gyro_c[a].clear();
+      } else {
+        segs = ss.takeSegmentValues(static_cast<int>(a));
+      }
+      if (opt.input == InputKind::Rate) {
+        if (segs.size() == 1) {
+          axis_warnings[a] = detectValueAnomalies(segs[0]).warnings("axis " + names[a]);
+        } else {
+          std::vector<double> all;
+          for (const auto& g : segs) all.insert(all.end(), g.begin(), g.end());
+          axis_warnings[a] = detectValueAnomalies(all).warnings("axis " + names[a]);
+        }
+      }
+      stages[a] = std::make_unique<AxisStages>(names[a], std::move(segs), tau0, opt,
                                                temperature_segments.empty() ? nullptr : &temperature_segments);
       stages[a]->prepare();
     });
@@ -549,13 +564,14 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
       ao.method = "joint_fit";
       try {
         SanitizedSeries sa = sanitizeCompact(t_c.toSeconds(), {&accel[0], &accel[1], &accel[2]}, so);
-        for (auto& v : accel) v.clear();
+        t_c.clear();
+        std::vector<double>().swap(sa.t);
         releaseFreed();
         accel_results.resize(3);
         accel_means.resize(3);
-        std::vector<double>().swap(sa.t);
         parallelFor(3, args.jobs, [&](size_t a) {
-          std::vector<std::vector<double>> segs = sa.takeSegmentValues(static_cast<int>(a));
+          std::vector<std::vector<double>> segs = sa.segmentValuesOf(accel[a]);
+          accel[a].clear();
           accel_means[a] = removeMean(&segs);
           AxisStages st("accel_" + names[a], std::move(segs), tau0, ao);
           st.prepare();
