@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <limits>
 #include <sstream>
 #include <stdexcept>
@@ -580,18 +581,68 @@ std::vector<PhaseSpan> toPhaseSpans(const std::vector<const std::vector<double>*
   return spans;
 }
 
+/// Overlapping-Allan sums of one span for every factor m <= kBlockedMaxM at once, cache-blocked: the terms are taken
+/// in chunks of kChunk, and every m sums its terms of the chunk while x[chunk, chunk + 2m] is still in cache (per m,
+/// one pass over a long record would stream it from memory once per tau). kChunk is a multiple of sumSquares'
+/// 1024-term blocks, so each m's sum is formed from the same double blocks as sumsAdev's (only the long-double
+/// additions of the chunk totals are grouped differently).
+constexpr int64_t kBlockedMaxM = 4096, kChunk = 16384;
+
+void sumsOadevBlocked(const double* x, int64_t n, const std::vector<int64_t>& ms, std::vector<SegmentSums>* sums) {
+  std::vector<int64_t> count(ms.size());
+  for (size_t k = 0; k < ms.size(); ++k) count[k] = std::max<int64_t>(0, n - 2 * ms[k]);
+  for (int64_t c = 0; c < n; c += kChunk) {
+    for (size_t k = 0; k < ms.size(); ++k) {
+      const int64_t m = ms[k], end = std::min(count[k], c + kChunk);
+      if (c >= end) continue;
+      const double* xc = x + c;
+      (*sums)[k].sumsq += sumSquares(end - c, [xc, m](int64_t i) { return xc[i + 2 * m] - 2.0 * xc[i + m] + xc[i]; });
+    }
+  }
+  for (size_t k = 0; k < ms.size(); ++k) (*sums)[k].terms += count[k];
+}
+
 DeviationCurve computeOnSpans(DevKind dk, const std::string& name, const std::vector<PhaseSpan>& phases, double tau0,
                               const std::vector<int64_t>& factors, const DeviationOptions& options) {
   DeviationCurve curve;
   curve.name = name;
   curve.tau0 = tau0;
   for (const auto& p : phases) curve.n_phase += p.n > 1 ? p.n : 0;
+  // oadev at small factors: all of them in one cache-blocked pass per span.
+  std::map<int64_t, SegmentSums> blocked;
+  if (dk == DevKind::Oadev) {
+    std::vector<int64_t> small;
+    for (int64_t m : factors)
+      if (m >= 1 && m <= kBlockedMaxM) small.push_back(m);
+    if (small.size() > 1) {
+      std::vector<SegmentSums> acc(small.size());
+      for (const auto& p : phases) {
+        if (p.n < 2) continue;
+        std::vector<int64_t> ms;
+        std::vector<size_t> at;
+        for (size_t k = 0; k < small.size(); ++k)
+          if (small[k] <= deviationMaxFactor(dk, p.n) && p.n >= 2 * small[k] + 1) ms.push_back(small[k]), at.push_back(k);
+        std::vector<SegmentSums> part(ms.size());
+        sumsOadevBlocked(p.x, p.n, ms, &part);
+        for (size_t j = 0; j < ms.size(); ++j) {
+          acc[at[j]].sumsq += part[j].sumsq;
+          acc[at[j]].terms += part[j].terms;
+        }
+      }
+      for (size_t k = 0; k < small.size(); ++k) blocked[small[k]] = acc[k];
+    }
+  }
   for (int64_t m : factors) {
     if (m < 1) throw std::invalid_argument("computeDeviation: averaging factor must be >= 1");
     SegmentSums s;
-    for (const auto& p : phases) {
-      if (p.n < 2 || m > deviationMaxFactor(dk, p.n)) continue;
-      accumulateSegment(dk, p.x, p.n, m, &s);
+    const auto b = blocked.find(m);
+    if (b != blocked.end()) {
+      s = b->second;
+    } else {
+      for (const auto& p : phases) {
+        if (p.n < 2 || m > deviationMaxFactor(dk, p.n)) continue;
+        accumulateSegment(dk, p.x, p.n, m, &s);
+      }
     }
     if (s.terms <= 0) continue;
     DeviationPoint pt;
