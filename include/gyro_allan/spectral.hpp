@@ -84,7 +84,7 @@ struct WarmupFit {
 WarmupFit fitWarmup(const std::vector<double>& block_means, double block_s, double theta_min, double theta_max);
 
 /// Impulsive outliers: samples more than z_min robust sigmas away from the median of their +-half_window neighbours;
-/// robust sigma = median of those distances over at most 2^17 evenly spaced samples / 0.6745. Only windows whose
+/// robust sigma = median of those distances over 2^15-2^16 evenly spaced samples (all if fewer) / 0.6745. Only windows whose
 /// range exceeds z_min robust sigmas are examined sample by sample (O(n) for ordinary noise).
 struct Outliers {
   std::vector<int64_t> index;
