@@ -289,30 +289,6 @@ void profileStage(const char* stage) {
 #endif
 }
 
-/// Runs task(0..n-1) on up to `jobs` threads (0 = one per core); the first failing task in index order is rethrown,
-/// so errors read the same as with one thread.
-void parallelFor(size_t n, int jobs, const std::function<void(size_t)>& task) {
-  size_t workers = jobs > 0 ? static_cast<size_t>(jobs) : std::max(1u, std::thread::hardware_concurrency());
-  workers = std::min(workers, n);
-  std::vector<std::exception_ptr> errors(n);
-  std::atomic<size_t> next{0};
-  auto work = [&]() {
-    for (size_t i; (i = next++) < n;) {
-      try {
-        task(i);
-      } catch (...) {
-        errors[i] = std::current_exception();
-      }
-    }
-  };
-  std::vector<std::thread> pool;
-  for (size_t w = 1; w < workers; ++w) pool.emplace_back(work);
-  work();
-  for (auto& th : pool) th.join();
-  for (const auto& e : errors)
-    if (e) std::rethrow_exception(e);
-}
-
 /// Runs tasks on up to `jobs` threads (0 = one per core): task k starts once every task in deps[k] has finished,
 /// and a free thread always takes the ready task with the lowest index (so one thread runs them in index order).
 /// After a failure no new task starts; the failure of the lowest-index task is rethrown.
@@ -496,6 +472,7 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
   std::vector<std::vector<size_t>> deps;
   std::vector<double>().swap(ss.t);  // stamps are not needed any more (temperature already interpolated)
   size_t last_split = SIZE_MAX;
+  std::vector<size_t> split_tasks;
   for (size_t a = 0; a < n_gyro; ++a) {
     const size_t prep = tasks.size();
     tasks.push_back([&, a] {
@@ -525,15 +502,77 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
     tasks.push_back([&, a] { stages[a]->split(); });
     deps.push_back(last_split == SIZE_MAX ? std::vector<size_t>{prep} : std::vector<size_t>{prep, last_split});
     last_split = tasks.size() - 1;
+    split_tasks.push_back(last_split);
     tasks.push_back([&, a] { stages[a]->check(); });
     deps.push_back({prep});
+    // Finish as soon as both are done: the axis's samples are freed here, not after the whole graph.
+    tasks.push_back([&, a] {
+      results[a] = stages[a]->finish();
+      stages[a].reset();
+    });
+    deps.push_back({tasks.size() - 3, tasks.size() - 2});
+  }
+  // Accelerometer: the same engine, joint fit only (the wavelet split and model check are tuned for gyros and
+  // would double the run time); the mean (gravity) is removed first. Its sanitation and three axes are graph tasks
+  // after the last gyro check, so they run beside the last wavelet split.
+  std::string accel_note;  // why the accelerometer was not analysed (stdout, not a warning: gyro-only IMUs are fine)
+  std::vector<AxisAnalysis> accel_results;
+  std::vector<double> accel_means;
+  std::string accel_error;  // set: not analysed, with this reason
+  if (args.accel && compact && !accel[0].empty() && accel[0].size() == n_stamps) {
+    bool published = false;  // an IMU without accelerometer publishes zeros
+    for (const auto& v : accel)
+      for (size_t i = 0; i < v.size() && !published; ++i) published = v[i] != 0 && std::isfinite(v[i]);
+    if (!published) {
+      accel_note = "accelerometer: linear_acceleration is all zero (not published?): not analysed";
+    } else {
+      accel_results.resize(3);
+      accel_means.resize(3);
+    }
+  }
+  AnalysisOptions ao = opt;
+  ao.wavelet_split = false;
+  ao.model_check = false;
+  ao.method = "joint_fit";
+  SanitizedSeries sa;
+  std::vector<std::string> accel_errors(3);
+  if (!accel_results.empty()) {
+    const size_t sanitize_task = tasks.size();
+    tasks.push_back([&] {
+      try {
+        sa = sanitizeCompact(t_c.toSeconds(), {&accel[0], &accel[1], &accel[2]}, so);
+        t_c.clear();
+        std::vector<double>().swap(sa.t);
+      } catch (const std::exception& e) {
+        accel_error = e.what();
+      }
+    });
+    // After the last gyro check and every split but the last: the accelerometer then overlaps only the last split,
+    // when the other axes' samples are already freed.
+    std::vector<size_t> after;
+    if (sanitize_task > 1) after.push_back(sanitize_task - 2);  // the last check (the last task is its finish)
+    if (split_tasks.size() > 1) after.push_back(split_tasks[split_tasks.size() - 2]);
+    deps.push_back(after);
+    for (size_t a = 0; a < 3; ++a) {
+      tasks.push_back([&, a] {
+        if (!accel_error.empty()) return;
+        try {
+          std::vector<std::vector<double>> segs = sa.segmentValuesOf(accel[a]);
+          accel[a].clear();
+          accel_means[a] = removeMean(&segs);
+          AxisStages st("accel_" + names[a], std::move(segs), tau0, ao);
+          st.prepare();
+          accel_results[a] = st.finish();  // joint fit only: no split or model check
+        } catch (const std::exception& e) {
+          accel_errors[a] = e.what();
+        }
+      });
+      deps.push_back({sanitize_task});
+    }
   }
   runTaskGraph(tasks, deps, args.jobs);
+  profileStage("axes");
   for (size_t a = 0; a < n_gyro; ++a) {
-    results[a] = stages[a]->finish();
-    stages[a].reset();
-    releaseFreed();
-    profileStage(("axis " + names[a]).c_str());
     // A gyro at rest reads Earth rate plus bias: hundreds of deg/s means wrong units or a moving sensor.
     if (opt.input == InputKind::Rate && std::fabs(results[a].mean) > 1.0)
       axis_warnings[a].push_back("axis " + names[a] + ": mean rate " + std::to_string(results[a].mean) +
@@ -545,44 +584,12 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
     ss.report = keep;
   }
   for (const auto& w : axis_warnings) meta.warnings.insert(meta.warnings.end(), w.begin(), w.end());
-
-  // Accelerometer: the same engine, joint fit only (the wavelet split and model check are tuned for gyros and
-  // would double the run time); the mean (gravity) is removed first. Its three axes run on --jobs threads.
-  std::string accel_note;  // why the accelerometer was not analysed (stdout, not a warning: gyro-only IMUs are fine)
-  std::vector<AxisAnalysis> accel_results;
-  std::vector<double> accel_means;
-  if (args.accel && compact && !accel[0].empty() && accel[0].size() == n_stamps) {
-    bool published = false;  // an IMU without accelerometer publishes zeros
-    for (const auto& v : accel)
-      for (size_t i = 0; i < v.size() && !published; ++i) published = v[i] != 0 && std::isfinite(v[i]);
-    if (!published) {
-      accel_note = "accelerometer: linear_acceleration is all zero (not published?): not analysed";
-    } else {
-      AnalysisOptions ao = opt;
-      ao.wavelet_split = false;
-      ao.model_check = false;
-      ao.method = "joint_fit";
-      try {
-        SanitizedSeries sa = sanitizeCompact(t_c.toSeconds(), {&accel[0], &accel[1], &accel[2]}, so);
-        t_c.clear();
-        std::vector<double>().swap(sa.t);
-        releaseFreed();
-        accel_results.resize(3);
-        accel_means.resize(3);
-        parallelFor(3, args.jobs, [&](size_t a) {
-          std::vector<std::vector<double>> segs = sa.segmentValuesOf(accel[a]);
-          accel[a].clear();
-          accel_means[a] = removeMean(&segs);
-          AxisStages st("accel_" + names[a], std::move(segs), tau0, ao);
-          st.prepare();
-          accel_results[a] = st.finish();  // joint fit only: no split or model check
-        });
-      } catch (const std::exception& e) {
-        accel_results.clear();
-        accel_means.clear();
-        meta.warnings.push_back(std::string("accelerometer not analysed: ") + e.what());
-      }
-    }
+  for (const auto& e : accel_errors)
+    if (accel_error.empty() && !e.empty()) accel_error = e;
+  if (!accel_error.empty()) {
+    accel_results.clear();
+    accel_means.clear();
+    meta.warnings.push_back("accelerometer not analysed: " + accel_error);
   }
   profileStage("analysis");
   for (const auto& w : meta.warnings)
