@@ -45,7 +45,8 @@ struct SanitizedSeries {
   std::vector<std::vector<double>> segmentValues(int axis) const;
   /// The same, moving the values out (v[axis] is empty afterwards): no second copy of a long record.
   std::vector<std::vector<double>> takeSegmentValues(int axis);
-  /// sanitizeCompact: input index of each kept sample, and the kept values of `axis` (an input axis) by segment.
+  /// sanitizeCompact: input index of each kept sample (empty when every sample was kept: the identity), and the
+  /// kept values of `axis` (an input axis) by segment.
   std::vector<uint32_t> kept;
   std::vector<std::vector<double>> segmentValuesOf(const CompactSeries& axis) const;
   /// A side series (e.g. temperature at 1 Hz: stamps ts, values vs, same time origin) linearly interpolated onto the

@@ -249,6 +249,8 @@ SanitizedSeries sanitizeImpl(const std::vector<double>& t, const std::vector<con
   segmentPeriod();
   closeSegment(out.t.size());
   std::vector<uint32_t>().swap(idx);
+  // Nothing dropped (the usual case): the kept index is the identity and is not stored.
+  if (!keep_values && out.kept.size() == t.size()) std::vector<uint32_t>().swap(out.kept);
   rep.kept = static_cast<int64_t>(out.t.size());
   rep.nominal_period_s = period;
   rep.rate_hz = period > 0 ? 1.0 / period : 0.0;
@@ -295,7 +297,11 @@ std::vector<std::vector<double>> SanitizedSeries::segmentValuesOf(const CompactS
   std::vector<std::vector<double>> out;
   for (const auto& s : segments) {
     std::vector<double> v(s.size());
-    for (size_t i = s.begin; i < s.end; ++i) v[i - s.begin] = axis[kept[i]];
+    if (kept.empty()) {  // identity: nothing was dropped
+      for (size_t i = s.begin; i < s.end; ++i) v[i - s.begin] = axis[i];
+    } else {
+      for (size_t i = s.begin; i < s.end; ++i) v[i - s.begin] = axis[kept[i]];
+    }
     out.push_back(std::move(v));
   }
   return out;
