@@ -70,7 +70,8 @@ Input
 
 Analysis
   --tau-grid G           octave | decade | all | log | log:K  (default log:10)
-  --deviations LIST      comma list of oadev,adev,mdev,hdev,ohdev,tdev,totdev written to allan.csv (default oadev)
+  --deviations LIST      comma list of oadev,adev,mdev,hdev,ohdev,tdev,totdev,mtotdev,ttotdev written to allan.csv
+                         (default oadev; mtotdev/ttotdev cost ~60x an oadev)
   --method M             auto | joint_fit | wavelet_split: whose coefficients are the answer (default auto:
                          wavelet_split when quantization dominates the shortest tau, else joint_fit)
   --no-wavelet-split     skip the wavelet split (sym8 denoising, Allan variance of both parts)
