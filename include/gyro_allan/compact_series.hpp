@@ -52,6 +52,8 @@ class CompactStamps {
   size_t bytes() const;
 
  private:
+  template <class F>
+  void decode(F&& f) const;  // f(index, ns) for every stamp in order
   std::vector<int32_t> deltas_;
   std::map<size_t, int64_t> exact_;  // index -> full value where the delta does not fit
   int64_t last_ = 0;

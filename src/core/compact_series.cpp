@@ -65,8 +65,8 @@ void CompactStamps::push_back(int64_t ns) {
   last_ = ns;
 }
 
-std::vector<int64_t> CompactStamps::toNanoseconds() const {
-  std::vector<int64_t> out(deltas_.size());
+template <class F>
+void CompactStamps::decode(F&& f) const {
   int64_t v = 0;
   auto it = exact_.begin();
   for (size_t i = 0; i < deltas_.size(); ++i) {
@@ -76,22 +76,19 @@ std::vector<int64_t> CompactStamps::toNanoseconds() const {
     } else {
       v += deltas_[i];
     }
-    out[i] = v;
+    f(i, v);
   }
+}
+
+std::vector<int64_t> CompactStamps::toNanoseconds() const {
+  std::vector<int64_t> out(deltas_.size());
+  decode([&out](size_t i, int64_t v) { out[i] = v; });
   return out;
 }
 
 std::vector<double> CompactStamps::toSeconds() const {
   std::vector<double> out(deltas_.size());
-  int64_t v = 0;
-  auto it = exact_.begin();
-  for (size_t i = 0; i < deltas_.size(); ++i) {
-    if (it != exact_.end() && it->first == i) {
-      v = it->second;
-      ++it;
-    } else {
-      v += deltas_[i];
-    }
+  decode([&out](size_t i, int64_t v) {
     // the same rounding as ros::Duration::toSec(): whole seconds plus 1e-9 * nanoseconds (sign-consistent split)
     int64_t sec = v / 1000000000, nsec = v % 1000000000;
     if (nsec < 0) {
@@ -99,7 +96,7 @@ std::vector<double> CompactStamps::toSeconds() const {
       --sec;
     }
     out[i] = v == 0 ? 0.0 : static_cast<double>(sec) + 1e-9 * static_cast<double>(nsec);
-  }
+  });
   return out;
 }
 

@@ -30,11 +30,8 @@
 namespace gyro_allan {
 namespace {
 
-using bag_detail::relativeStamp;
-using bag_detail::relativeStampNs;
 
 const char* kImuType = "sensor_msgs/Imu";
-const char* kTempType = "sensor_msgs/Temperature";
 constexpr uint8_t kOpMessage = 0x02, kOpBagHeader = 0x03, kOpChunk = 0x05, kOpChunkInfo = 0x06, kOpConnection = 0x07;
 
 /// Any reason to leave the bag to rosbag.
@@ -307,28 +304,11 @@ bool readImuBagsDirect(const std::vector<std::string>& paths, const BagReadOptio
     std::map<std::string, std::string> topics;
     for (const auto& b : bags)
       for (const auto& kv : b.connections) topics.insert({kv.second.topic, kv.second.type});
-    std::string topic = options.topic;
-    if (!topic.empty()) {
-      const auto it = topics.find(topic);
-      if (it == topics.end() || it->second != kImuType) return false;
-    } else {
-      std::vector<std::string> imu;
-      for (const auto& kv : topics)
-        if (kv.second == kImuType) imu.push_back(kv.first);
-      if (imu.size() != 1) return false;
-      topic = imu.front();
-    }
-    std::string temp_topic = options.temperature_topic;
-    if (temp_topic == "-") {
-      temp_topic.clear();
-    } else if (!temp_topic.empty()) {
-      const auto it = topics.find(temp_topic);
-      if (it == topics.end() || it->second != kTempType) return false;
-    } else {
-      std::vector<std::string> tt;
-      for (const auto& kv : topics)
-        if (kv.second == kTempType) tt.push_back(kv.first);
-      if (tt.size() == 1) temp_topic = tt.front();
+    std::string topic, temp_topic;
+    try {
+      bag_detail::chooseTopics(topics, options, &topic, &temp_topic);
+    } catch (const InputError&) {
+      return false;
     }
 
     ImuSeries s;
@@ -346,9 +326,8 @@ bool readImuBagsDirect(const std::vector<std::string>& paths, const BagReadOptio
     for (auto& x : s.accel) x.reserve(total);
     s.t.reserve(total);
     const bool show = options.progress && isatty(fileno(stderr));
-    size_t done = 0, next_report = total / 50 + 1;
-    double t_first = -1;
-    ros::Time t_origin;
+    size_t next_report = total / 50 + 1;
+    bag_detail::ImuAppender app(&s, options);
     sensor_msgs::Imu imu;  // reused for every message
     sensor_msgs::Temperature tm;
     std::vector<ros::Time> temp_abs;
@@ -409,23 +388,8 @@ bool readImuBagsDirect(const std::vector<std::string>& paths, const BagReadOptio
             continue;
           }
           deserialize(data, dlen, &imu);
-          ++done;
-          const ros::Time stamp = options.use_bag_time ? rec_time : imu.header.stamp;
-          const int64_t t_ns = relativeStampNs(stamp, &t_origin);
-          const double t = t_ns == 0 ? 0.0 : (stamp - t_origin).toSec();
-          if (t_first < 0 && t != 0) t_first = t;
-          if (options.start_s > 0 || options.duration_s > 0) {
-            if (t_first >= 0 && t < t_first + options.start_s) continue;
-            if (options.duration_s > 0 && t_first >= 0 && t >= t_first + options.start_s + options.duration_s) continue;
-          }
-          if (s.frame_id.empty()) s.frame_id = imu.header.frame_id;
-          s.t.push_back(t_ns);
-          s.gyro[0].push_back(imu.angular_velocity.x);
-          s.gyro[1].push_back(imu.angular_velocity.y);
-          s.gyro[2].push_back(imu.angular_velocity.z);
-          s.accel[0].push_back(imu.linear_acceleration.x);
-          s.accel[1].push_back(imu.linear_acceleration.y);
-          s.accel[2].push_back(imu.linear_acceleration.z);
+          app.add(rec_time, imu);
+          const size_t done = app.offered();
           if (show && done >= next_report) {
             std::fprintf(stderr, "\rreading %s: %3.0f %%", topic.c_str(), 100.0 * done / std::max<size_t>(1, total));
             next_report += total / 50 + 1;
@@ -433,11 +397,12 @@ bool readImuBagsDirect(const std::vector<std::string>& paths, const BagReadOptio
         }
       }
     }
+    const size_t done = app.offered();
     if (done != total) return false;  // the index promised other counts: let rosbag judge
     if (show) std::fprintf(stderr, "\rreading %s: done     \n", topic.c_str());
     s.messages = static_cast<int64_t>(done);
     if (s.t.empty()) return false;  // rosbag path gives the "no messages in the range" error
-    bag_detail::finishTemperature(temp_abs, &t_origin, &s.temperature_t);
+    bag_detail::finishTemperature(temp_abs, app.origin(), &s.temperature_t);
     s.reader = "direct";
     *out = std::move(s);
     return true;

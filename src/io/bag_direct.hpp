@@ -5,7 +5,10 @@
 #include <string>
 #include <vector>
 
+#include <map>
+
 #include <ros/time.h>
+#include <sensor_msgs/Imu.h>
 
 #include "gyro_allan/io/bag_input.hpp"
 
@@ -34,6 +37,48 @@ inline void finishTemperature(const std::vector<ros::Time>& abs, ros::Time* orig
   rel->reserve(abs.size());
   for (const auto& t : abs) rel->push_back(relativeStamp(t, origin));
 }
+
+/// The topic choice of readImuBags (the only sensor_msgs/Imu topic unless given; the only Temperature topic, if any,
+/// unless given or "-"): throws InputError naming the problem. `topics`: topic -> type over all bags.
+void chooseTopics(const std::map<std::string, std::string>& topics, const BagReadOptions& options, std::string* topic,
+                  std::string* temp_topic);
+
+/// Appends IMU messages to a series as both readers do: stamps relative to the first non-zero one, the --start /
+/// --duration window, the frame id; counts every message offered.
+class ImuAppender {
+ public:
+  ImuAppender(ImuSeries* s, const BagReadOptions& o) : s_(s), o_(o) {}
+  void add(const ros::Time& record_time, const sensor_msgs::Imu& imu) {
+    ++offered_;
+    const ros::Time stamp = o_.use_bag_time ? record_time : imu.header.stamp;
+    const int64_t t_ns = relativeStampNs(stamp, &origin_);
+    const double t = t_ns == 0 ? 0.0 : (stamp - origin_).toSec();  // as CompactStamps::toSeconds gives it
+    if (t_first_ < 0 && t != 0) t_first_ = t;
+    if (o_.start_s > 0 || o_.duration_s > 0) {
+      if (t_first_ >= 0 && t < t_first_ + o_.start_s) return;
+      if (o_.duration_s > 0 && t_first_ >= 0 && t >= t_first_ + o_.start_s + o_.duration_s) return;
+    }
+    if (s_->frame_id.empty()) s_->frame_id = imu.header.frame_id;
+    s_->t.push_back(t_ns);
+    s_->gyro[0].push_back(imu.angular_velocity.x);
+    s_->gyro[1].push_back(imu.angular_velocity.y);
+    s_->gyro[2].push_back(imu.angular_velocity.z);
+    s_->accel[0].push_back(imu.linear_acceleration.x);
+    s_->accel[1].push_back(imu.linear_acceleration.y);
+    s_->accel[2].push_back(imu.linear_acceleration.z);
+  }
+  /// Messages offered so far (kept or not).
+  size_t offered() const { return offered_; }
+  /// Zero until the first non-zero stamp; temperature stamps are made relative to it at the end.
+  ros::Time* origin() { return &origin_; }
+
+ private:
+  ImuSeries* s_;
+  const BagReadOptions& o_;
+  ros::Time origin_;
+  double t_first_ = -1;
+  size_t offered_ = 0;
+};
 
 }  // namespace bag_detail
 

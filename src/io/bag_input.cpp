@@ -20,7 +20,6 @@
 namespace gyro_allan {
 namespace {
 
-using bag_detail::relativeStampNs;
 
 const char* kImuType = "sensor_msgs/Imu";
 const char* kTempType = "sensor_msgs/Temperature";
@@ -39,6 +38,49 @@ struct OpenBag {
 };
 
 }  // namespace
+
+namespace bag_detail {
+
+void chooseTopics(const std::map<std::string, std::string>& topics, const BagReadOptions& options, std::string* topic_out,
+                  std::string* temp_topic_out) {
+  std::string topic = options.topic;
+  if (!topic.empty()) {
+    auto it = topics.find(topic);
+    if (it == topics.end()) throw InputError("topic '" + topic + "' is not in the bag (topics: " + joinTopics(topics) + ")");
+    if (it->second != kImuType)
+      throw InputError("topic '" + topic + "' has type " + it->second + ", not " + kImuType);
+  } else {
+    std::vector<std::string> imu;
+    for (const auto& kv : topics)
+      if (kv.second == kImuType) imu.push_back(kv.first);
+    if (imu.empty()) throw InputError(std::string("no ") + kImuType + " topic in the bag (topics: " + joinTopics(topics) + ")");
+    if (imu.size() > 1) {
+      std::string list;
+      for (const auto& t : imu) list += (list.empty() ? "" : ", ") + t;
+      throw InputError("several " + std::string(kImuType) + " topics (" + list + "): choose one with --topic");
+    }
+    topic = imu.front();
+  }
+  std::string temp_topic = options.temperature_topic;
+  if (temp_topic == "-") {
+    temp_topic.clear();
+  } else if (!temp_topic.empty()) {
+    auto it = topics.find(temp_topic);
+    if (it == topics.end()) throw InputError("temperature topic '" + temp_topic + "' is not in the bag");
+    if (it->second != kTempType)
+      throw InputError("topic '" + temp_topic + "' has type " + it->second + ", not " + kTempType);
+  } else {
+    std::vector<std::string> tt;
+    for (const auto& kv : topics)
+      if (kv.second == kTempType) tt.push_back(kv.first);
+    if (tt.size() == 1) temp_topic = tt.front();
+  }
+
+  *topic_out = topic;
+  *temp_topic_out = temp_topic;
+}
+
+}  // namespace bag_detail
 
 ImuSeries readImuBags(const std::vector<std::string>& paths, const BagReadOptions& options) {
   if (paths.empty()) throw InputError("no bag given");
@@ -75,38 +117,8 @@ ImuSeries readImuBags(const std::vector<std::string>& paths, const BagReadOption
   // Topic choice: the same across bags.
   std::map<std::string, std::string> topics;
   for (const auto& b : bags) topics.insert(b.topics.begin(), b.topics.end());
-  std::string topic = options.topic;
-  if (!topic.empty()) {
-    auto it = topics.find(topic);
-    if (it == topics.end()) throw InputError("topic '" + topic + "' is not in the bag (topics: " + joinTopics(topics) + ")");
-    if (it->second != kImuType)
-      throw InputError("topic '" + topic + "' has type " + it->second + ", not " + kImuType);
-  } else {
-    std::vector<std::string> imu;
-    for (const auto& kv : topics)
-      if (kv.second == kImuType) imu.push_back(kv.first);
-    if (imu.empty()) throw InputError(std::string("no ") + kImuType + " topic in the bag (topics: " + joinTopics(topics) + ")");
-    if (imu.size() > 1) {
-      std::string list;
-      for (const auto& t : imu) list += (list.empty() ? "" : ", ") + t;
-      throw InputError("several " + std::string(kImuType) + " topics (" + list + "): choose one with --topic");
-    }
-    topic = imu.front();
-  }
-  std::string temp_topic = options.temperature_topic;
-  if (temp_topic == "-") {
-    temp_topic.clear();
-  } else if (!temp_topic.empty()) {
-    auto it = topics.find(temp_topic);
-    if (it == topics.end()) throw InputError("temperature topic '" + temp_topic + "' is not in the bag");
-    if (it->second != kTempType)
-      throw InputError("topic '" + temp_topic + "' has type " + it->second + ", not " + kTempType);
-  } else {
-    std::vector<std::string> tt;
-    for (const auto& kv : topics)
-      if (kv.second == kTempType) tt.push_back(kv.first);
-    if (tt.size() == 1) temp_topic = tt.front();
-  }
+  std::string topic, temp_topic;
+  bag_detail::chooseTopics(topics, options, &topic, &temp_topic);
 
   ImuSeries s;
   s.topic = topic;
@@ -120,9 +132,8 @@ ImuSeries readImuBags(const std::vector<std::string>& paths, const BagReadOption
   for (auto& x : s.accel) x.reserve(total);
   s.t.reserve(total);
   const bool show = options.progress && isatty(fileno(stderr));
-  size_t done = 0, next_report = total / 50 + 1;
-  double t_first = -1;
-  ros::Time t_origin;  // zero until the first non-zero stamp
+  size_t next_report = total / 50 + 1;
+  bag_detail::ImuAppender app(&s, options);
   std::vector<ros::Time> temp_abs;
   for (auto& b : bags) {
     s.bags.push_back(b.path);
@@ -140,23 +151,8 @@ ImuSeries readImuBags(const std::vector<std::string>& paths, const BagReadOption
         }
         auto imu = m.instantiate<sensor_msgs::Imu>();
         if (!imu) throw InputError("topic '" + topic + "' holds a message that is not " + kImuType);
-        ++done;
-        const ros::Time stamp = options.use_bag_time ? m.getTime() : imu->header.stamp;
-        const int64_t t_ns = relativeStampNs(stamp, &t_origin);
-        const double t = t_ns == 0 ? 0.0 : (stamp - t_origin).toSec();  // as CompactStamps::toSeconds gives it
-        if (t_first < 0 && t != 0) t_first = t;
-        if (options.start_s > 0 || options.duration_s > 0) {
-          if (t_first >= 0 && t < t_first + options.start_s) continue;
-          if (options.duration_s > 0 && t_first >= 0 && t >= t_first + options.start_s + options.duration_s) continue;
-        }
-        if (s.frame_id.empty()) s.frame_id = imu->header.frame_id;
-        s.t.push_back(t_ns);
-        s.gyro[0].push_back(imu->angular_velocity.x);
-        s.gyro[1].push_back(imu->angular_velocity.y);
-        s.gyro[2].push_back(imu->angular_velocity.z);
-        s.accel[0].push_back(imu->linear_acceleration.x);
-        s.accel[1].push_back(imu->linear_acceleration.y);
-        s.accel[2].push_back(imu->linear_acceleration.z);
+        app.add(m.getTime(), *imu);
+        const size_t done = app.offered();
         if (show && done >= next_report) {
           std::fprintf(stderr, "\rreading %s: %3.0f %%", topic.c_str(), 100.0 * done / std::max<size_t>(1, total));
           next_report += total / 50 + 1;
@@ -165,14 +161,14 @@ ImuSeries readImuBags(const std::vector<std::string>& paths, const BagReadOption
     } catch (const InputError&) {
       throw;
     } catch (const std::exception& e) {
-      throw InputError("bag '" + b.path + "' is truncated or corrupt after " + std::to_string(done) +
+      throw InputError("bag '" + b.path + "' is truncated or corrupt after " + std::to_string(app.offered()) +
                        " messages of '" + topic + "': " + e.what());
     }
   }
   if (show) std::fprintf(stderr, "\rreading %s: done     \n", topic.c_str());
-  s.messages = static_cast<int64_t>(done);
+  s.messages = static_cast<int64_t>(app.offered());
   s.reader = "rosbag";
-  bag_detail::finishTemperature(temp_abs, &t_origin, &s.temperature_t);
+  bag_detail::finishTemperature(temp_abs, app.origin(), &s.temperature_t);
   if (s.t.empty())
     throw InputError("topic '" + topic + "' has no messages" +
                      std::string(options.start_s > 0 || options.duration_s > 0 ? " in the requested time range" : ""));
