@@ -91,6 +91,10 @@ class File {
  public:
   explicit File(const std::string& path) : f_(std::fopen(path.c_str(), "rb")) {
     if (!f_) throw NotDirect{};
+    if (fseeko(f_, 0, SEEK_END) != 0 || (size_ = ftello(f_)) < 0 || fseeko(f_, 0, SEEK_SET) != 0) {
+      std::fclose(f_);
+      throw NotDirect{};
+    }
   }
   ~File() { std::fclose(f_); }
   File(const File&) = delete;
@@ -109,11 +113,12 @@ class File {
   /// One record at the current position: header fields, and its data into *data (or skipped when null).
   Fields readRecord(std::string* data) {
     const uint32_t hlen = readU32();
-    if (hlen > (1u << 24)) throw NotDirect{};
+    if (hlen > (1u << 24) || hlen > remaining()) throw NotDirect{};
     std::string h(hlen, '\0');
     read(&h[0], hlen);
     Fields f = parseFields(h.data(), h.size());
     const uint32_t dlen = readU32();
+    if (dlen > remaining()) throw NotDirect{};  // a corrupt length must not allocate gigabytes
     if (data) {
       data->resize(dlen);
       read(&(*data)[0], dlen);
@@ -124,7 +129,12 @@ class File {
   }
 
  private:
+  uint64_t remaining() {
+    const off_t at = ftello(f_);
+    return at < 0 || at > size_ ? 0 : static_cast<uint64_t>(size_ - at);
+  }
   FILE* f_;
+  off_t size_ = 0;
 };
 
 struct Connection {
@@ -198,6 +208,7 @@ void readChunk(File* f, uint64_t pos, std::string* compressed, std::string* out)
   if (field(c, "op", 1)[0] != kOpChunk) throw NotDirect{};
   const std::string& comp = field(c, "compression");
   const uint32_t size = u32(field(c, "size", 4).data());
+  if (size > (1u << 30)) throw NotDirect{};  // chunks are ~1 MB; a corrupt size must not allocate gigabytes
   if (comp == "none") {
     if (compressed->size() != size) throw NotDirect{};
     out->swap(*compressed);
