@@ -5,6 +5,8 @@
 #include <cmath>
 #include <random>
 #include <stdexcept>
+#include <string>
+#include <utility>
 #include <vector>
 
 #include "gyro_allan/allan.hpp"
@@ -412,6 +414,35 @@ TEST(AllanNoiseId, IdentifiesPowerLawNoises) {
   double acc = 0;
   for (size_t i = 0; i < n; ++i) rw[i] = (acc += steps[i]);
   check(rw, InputKind::Rate, -2, "random-walk FM (RRW)");
+}
+
+TEST(AllanNoiseId, LongSpansUseSpreadBlocks) {
+  // Above 2^17 decimated points the lag-1 ACF comes from 16 spread blocks: on 2^20 samples white FM (rate white),
+  // white PM (angle white) and random-walk FM (rate a random walk) must still be told apart at the short factors
+  // (m = 1..6, all on the block path), as on the full sequence.
+  std::mt19937_64 rng(21);
+  std::normal_distribution<double> g(0.0, 1.0);
+  const size_t n = size_t(1) << 20;
+  std::vector<double> white(n), pm(n), rw(n);
+  double prev = g(rng), walk = 0;
+  for (size_t i = 0; i < n; ++i) {
+    white[i] = g(rng);
+    const double e = g(rng);
+    pm[i] = e - prev;  // rate = difference of a white angle error
+    prev = e;
+    walk += g(rng);
+    rw[i] = walk;
+  }
+  DeviationOptions o;
+  std::string err;
+  ASSERT_TRUE(parseTauGrid("all", &o.grid, &err));
+  const std::vector<int64_t> ms{1, 2, 3, 4, 5, 6};
+  const std::pair<const std::vector<double>*, int> cases[] = {{&white, 0}, {&pm, 2}, {&rw, -2}};
+  for (const auto& c : cases) {
+    const DeviationCurve curve = computeDeviationAt("oadev", *c.first, InputKind::Rate, 1.0, ms, o);
+    ASSERT_EQ(curve.points.size(), ms.size());
+    for (const auto& p : curve.points) EXPECT_EQ(p.alpha, c.second) << "m=" << p.m;
+  }
 }
 
 TEST(AllanEdf, ChiSquaredQuantiles) {

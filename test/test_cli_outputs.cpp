@@ -71,6 +71,23 @@ class Outputs : public ::testing::Test {
   }
 };
 
+TEST_F(Outputs, OneThreadAndTwoThreadsWriteTheSameResults) {
+  // --jobs only schedules the stages: the report's numbers and allan.csv must not depend on it.
+  const std::string bag = kOut + "/batch_in/sim3.bag";
+  const ToolRun a = run(kTools + "/analyze_bag " + bag + " --no-plot --quiet --jobs 1 --output " + kOut + "/jobs1");
+  const ToolRun b = run(kTools + "/analyze_bag " + bag + " --no-plot --quiet --jobs 2 --output " + kOut + "/jobs2");
+  ASSERT_EQ(a.code, 0) << a.err;
+  ASSERT_EQ(b.code, 0) << b.err;
+  EXPECT_EQ(slurp(kOut + "/jobs1/allan.csv"), slurp(kOut + "/jobs2/allan.csv"));
+  EXPECT_EQ(slurp(kOut + "/jobs1/imu.yaml"), slurp(kOut + "/jobs2/imu.yaml"));
+  const YAML::Node ra = YAML::LoadFile(kOut + "/jobs1/report.yaml"), rb = YAML::LoadFile(kOut + "/jobs2/report.yaml");
+  EXPECT_EQ(YAML::Dump(ra["axes"]), YAML::Dump(rb["axes"]));
+  EXPECT_EQ(YAML::Dump(ra["accelerometer"]), YAML::Dump(rb["accelerometer"]));
+  const ToolRun bad = run(kTools + "/analyze_bag " + bag + " --jobs 0 --output " + kOut + "/jobs0");
+  EXPECT_EQ(bad.code, 1);
+  EXPECT_NE(bad.err.find("--jobs"), std::string::npos) << bad.err;
+}
+
 TEST_F(Outputs, KalibrValuesAreTheReportsNAndKInSi) {
   const std::string out = kOut + "/kalibr";
   const ToolRun r = run(kTools + "/analyze_bag " + kOut + "/batch_in/sim3.bag --no-plot --output " + out);
