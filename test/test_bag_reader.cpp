@@ -1,5 +1,6 @@
 // The direct chunk reader (bag_direct.cpp) must give exactly what rosbag::View gives, and step aside when unsure.
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 
 #include <cmath>
 #include <cstdio>
@@ -21,7 +22,14 @@ using namespace gyro_allan;
 
 namespace {
 
-std::string outPath(const std::string& name) { return std::string(GYRO_ALLAN_TEST_OUT) + "/bag_reader_" + name; }
+std::string outPath(const std::string& name) {
+  static const bool made = [] {  // a clean build has no test_out directory yet
+    ::mkdir(GYRO_ALLAN_TEST_OUT, 0755);
+    return true;
+  }();
+  (void)made;
+  return std::string(GYRO_ALLAN_TEST_OUT) + "/bag_reader_" + name;
+}
 
 struct BagSpec {
   rosbag::compression::CompressionType compression = rosbag::compression::Uncompressed;
