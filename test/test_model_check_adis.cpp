@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "gyro_allan/allan.hpp"
+#include "gyro_allan/csv_input.hpp"
 #include "gyro_allan/model_check.hpp"
 #include "gyro_allan/noise_model.hpp"
 
@@ -19,29 +20,14 @@ namespace {
 std::vector<std::vector<double>> readRun(int run) {
   const std::string path = std::string(GYRO_ALLAN_SHARED_DATA) + "/adis16405/adis16405_imu" + std::to_string(run) +
                            "_100Hz.csv.gz";
-  std::vector<std::vector<double>> g(3);
   FILE* probe = std::fopen(path.c_str(), "rb");
-  if (!probe) return g;
+  if (!probe) return std::vector<std::vector<double>>(3);
   std::fclose(probe);
-  FILE* f = popen(("gzip -dc '" + path + "'").c_str(), "r");
-  if (!f) return g;
-  char line[256];
-  bool header = true;
-  while (std::fgets(line, sizeof line, f)) {
-    if (header) {
-      header = false;
-      continue;
-    }
-    char* p = line;
-    for (int a = 0; a < 3; ++a) {
-      char* end = nullptr;
-      const double v = std::strtod(p, &end);
-      g[a].push_back(v * M_PI / 180.0);
-      p = end + (*end == ',' ? 1 : 0);
-    }
-  }
-  pclose(f);
-  return g;
+  CsvOptions o;
+  o.scale = M_PI / 180.0;
+  CsvSeries c = readCsvFile(path, o);
+  c.columns.resize(3);
+  return std::move(c.columns);
 }
 
 ModelCheck check(const std::vector<double>& rate) {

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "gyro_allan/allan.hpp"
+#include "gyro_allan/csv_input.hpp"
 #include "gyro_allan/model_check.hpp"
 #include "gyro_allan/noise_model.hpp"
 #include "gyro_allan/simulate.hpp"
@@ -29,31 +30,12 @@ void usage() {
 
 // Reads the three gyro columns (deg/s) of an ADIS16405 CSV (gzip) and returns them in rad/s.
 std::vector<std::vector<double>> readAdis(const std::string& path) {
-  const std::string cmd = "gzip -dc '" + path + "'";
-  FILE* f = popen(cmd.c_str(), "r");
-  if (!f) throw std::runtime_error("cannot run " + cmd);
-  std::vector<std::vector<double>> g(3);
-  char line[512];
-  bool header = true;
-  const double k = M_PI / 180.0;
-  while (std::fgets(line, sizeof line, f)) {
-    if (header) {
-      header = false;
-      continue;
-    }
-    char* p = line;
-    for (int a = 0; a < 3; ++a) {
-      char* end = nullptr;
-      const double v = std::strtod(p, &end);
-      if (end == p) break;
-      g[a].push_back(v * k);
-      p = end;
-      if (*p == ',') ++p;
-    }
-  }
-  const int rc = pclose(f);
-  if (rc != 0 || g[0].empty()) throw std::runtime_error("failed to read " + path);
-  return g;
+  CsvOptions o;
+  o.scale = M_PI / 180.0;
+  CsvSeries c = readCsvFile(path, o);
+  if (c.columns.size() < 3 || c.columns[0].empty()) throw std::runtime_error("failed to read " + path);
+  c.columns.resize(3);
+  return std::move(c.columns);
 }
 
 struct AxisResult {
