@@ -70,7 +70,7 @@ TEST(NodeletBadParams, ComesUpWithDocumentedReplacements) {
   EXPECT_EQ(p.value("window (s)"), 3600.0);     // window_s -5 -> default
   EXPECT_EQ(p.value("hop (s)"), 10.0);          // hop_s > window -> min(10, window)
   EXPECT_NEAR(p.value("nominal rate (Hz)"), 200.0, 1.0);  // expected_rate_hz < 0 -> learned
-  EXPECT_NEAR(p.value("gap threshold (s)"), 1.5 / 200.0, 1e-4);  // gap_factor 0.5 -> 1.5
+  EXPECT_NEAR(p.value("gap threshold: missing samples late by (s)"), 0.5 / 200.0, 1e-4);  // gap_factor 0.5 -> 1.5
   EXPECT_EQ(p.value("out of order (total)"), 0.0);
   EXPECT_EQ(p.value("gaps (total)"), 0.0);
 }

@@ -80,7 +80,15 @@ class Harness {
       noise.bias = 0.01 * (a + 1);
       data_[a] = gyro_allan::simulateAxis(noise, kRate, n, 42, a);
     }
+    // Arrival-time stamps of a driver that stamps on receipt: up to half a period late, 1 % held back 2-10
+    // periods with a burst behind them (as offsets from the sample times, for jittered(true)).
+    std::vector<double> t(static_cast<size_t>(n));
+    for (int64_t k = 0; k < n; ++k) t[static_cast<size_t>(k)] = k / kRate;
+    const std::vector<double> r = gyro_allan::receiptStamps(t, 1.0 / kRate, 0.5, 0.01, 7);
+    delay_.resize(t.size());
+    for (size_t k = 0; k < t.size(); ++k) delay_[k] = r[k] - t[k];
   }
+  void jittered(bool on) { jittered_ = on; }
 
   bool waitForSubscriber(double timeout_s) {
     const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(timeout_s);
@@ -122,7 +130,9 @@ class Harness {
     m.angular_velocity.z = z;
     imu_pub_.publish(m);
   }
-  ros::Time stamp(int64_t k) const { return t0_ + ros::Duration(k / kRate); }
+  ros::Time stamp(int64_t k) const {
+    return t0_ + ros::Duration(k / kRate + (jittered_ ? delay_[static_cast<size_t>(k) % delay_.size()] : 0.0));
+  }
   void skip(int64_t samples) { next_ += samples; }
   int64_t next() const { return next_; }
 
@@ -186,6 +196,8 @@ class Harness {
   ros::Publisher imu_pub_, bad_pub_, angle_pub_;
   ros::Subscriber noise_sub_, diag_sub_;
   std::vector<double> data_[3];
+  std::vector<double> delay_;
+  bool jittered_ = false;
   ros::Time t0_{1000.0};
   int64_t next_ = 0;
   std::mutex mutex_;
@@ -229,6 +241,17 @@ TEST(NodeletConvergence, ConvergesReactsAndRecovers) {
   EXPECT_EQ(h.level("angle random walk"), OK) << h.message("angle random walk");
   EXPECT_LE(h.level("input rate"), WARN) << h.message("input rate");
   EXPECT_GE(h.level("fit quality"), OK) << "fit quality status missing";
+
+  // A2. Arrival-time stamps (jitter up to half a period, 1 % of samples late by 2-10 periods with a burst
+  // behind): the grid places the samples; no gap, no stamp warning, one segment, N still converged.
+  h.clearMax();
+  h.jittered(true);
+  const int before_jitter = h.reports();
+  h.publishUntil(25.0, [&] { return h.reports() >= before_jitter + 8; });
+  EXPECT_EQ(h.maxLevel("stamps"), OK) << h.message("stamps");
+  EXPECT_EQ(h.lastReport().segments, 1) << "arrival-time jitter must not split the window";
+  expectConverged(h.lastReport(), "arrival-time stamps");
+  h.jittered(false);
 
   // B. One NaN sample: "input values" goes to WARN/ERROR, then back to OK (diag/recent_s = 3 s).
   h.clearMax();

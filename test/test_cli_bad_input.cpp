@@ -113,7 +113,8 @@ void expectNothingLost(const YAML::Node& rep, int64_t written) {
   ASSERT_TRUE(s);
   EXPECT_EQ(s["input"].as<int64_t>(), written);
   EXPECT_EQ(s["kept"].as<int64_t>() + s["non_finite"].as<int64_t>() + s["zero_stamp"].as<int64_t>() +
-                s["out_of_order"].as<int64_t>() + s["duplicate"].as<int64_t>() + s["short_segment"].as<int64_t>(),
+                s["out_of_order"].as<int64_t>() + s["duplicate"].as<int64_t>() + s["too_close"].as<int64_t>() +
+                s["short_segment"].as<int64_t>(),
             written);
   // Every axis analyses exactly the kept samples.
   for (const char* ax : {"x", "y", "z"}) EXPECT_EQ(rep["axes"][ax]["samples"].as<int64_t>(), s["kept"].as<int64_t>());

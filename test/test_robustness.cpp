@@ -34,7 +34,7 @@ namespace {
 using namespace gyro_allan;
 
 int64_t accounted(const StampReport& r) {
-  return r.kept + r.non_finite + r.zero_stamp + r.out_of_order + r.duplicate + r.short_segment;
+  return r.kept + r.non_finite + r.zero_stamp + r.out_of_order + r.duplicate + r.too_close + r.short_segment;
 }
 
 SanitizedSeries sanitize1(const std::vector<double>& t, const std::vector<double>& v, SanitizeOptions o = {}) {

@@ -79,3 +79,127 @@ TEST(Timing, ValueAnomaliesFindShocksAndSaturation) {
   EXPECT_EQ(a.saturated, 10);
   EXPECT_EQ(a.warnings("axis x").size(), 2u);
 }
+
+// ---- StampGrid: the regular sampler behind arrival-time stamps.
+namespace {
+// 100 Hz stamps delayed by a random 0..jitter periods, with `late` of them delayed by 2..10 periods more (bursts:
+// the samples behind a late one are delayed at least as much, as a driver's queue does).
+std::vector<double> jittered(int n, double jitter, double late, uint64_t seed, double period = 0.01) {
+  std::vector<double> t(static_cast<size_t>(n));
+  uint64_t s = seed * 2654435761ULL + 1;
+  auto uni = [&]() {
+    s = s * 6364136223846793005ULL + 1442695040888963407ULL;
+    return static_cast<double>(s >> 11) / 9007199254740992.0;
+  };
+  double queue_until = 0;
+  for (int i = 0; i < n; ++i) {
+    const double true_t = 100.0 + i * period;
+    double a = true_t + uni() * jitter * period;
+    if (uni() < late) queue_until = std::max(queue_until, true_t + (2 + 8 * uni()) * period);
+    a = std::max(a, queue_until + 1e-6 * uni());
+    t[static_cast<size_t>(i)] = a;
+  }
+  for (size_t i = 1; i < t.size(); ++i) t[i] = std::max(t[i], t[i - 1] + 1e-7);  // a queue keeps the order
+  return t;
+}
+}  // namespace
+
+TEST(StampGrid, JitterAndBurstsAreNotGaps) {
+  for (uint64_t seed = 1; seed <= 5; ++seed) {
+    std::vector<double> t = jittered(20000, 0.5, 0.01, seed), v(t.size(), 0.0);
+    const auto s = sanitize(t, {&v});
+    EXPECT_EQ(s.report.kept, 20000) << seed;
+    EXPECT_EQ(s.segments.size(), 1u) << seed;
+    EXPECT_EQ(s.report.gaps, 0) << seed;
+    EXPECT_EQ(s.report.too_close + s.report.duplicate + s.report.out_of_order, 0) << seed;
+    EXPECT_NEAR(s.report.rate_hz, 100.0, 0.05) << seed;
+    EXPECT_FALSE(s.report.rate_changed) << seed;
+    EXPECT_TRUE(s.report.receipt_stamps) << seed;
+    EXPECT_GT(s.report.jitter_max_s, 0.02) << seed;  // the bursts
+  }
+}
+
+TEST(StampGrid, MissingSamplesAreGapsCountedExactly) {
+  // Jittered stamps with 1, 3 and 50 samples really missing.
+  std::vector<double> all = jittered(6000, 0.45, 0.0, 7), t;
+  for (size_t i = 0; i < all.size(); ++i)
+    if (i != 1000 && !(i >= 2000 && i < 2003) && !(i >= 4000 && i < 4050)) t.push_back(all[i]);
+  std::vector<double> v(t.size(), 0.0);
+  const auto s = sanitize(t, {&v});
+  EXPECT_EQ(s.report.gaps, 3);
+  EXPECT_EQ(s.report.missing_samples, 1 + 3 + 50);
+  EXPECT_NEAR(s.report.nominal_period_s, 0.01, 1e-5);
+  EXPECT_NEAR(s.report.gap_time_s, 54 * s.report.nominal_period_s, 1e-12);
+  EXPECT_EQ(s.segments.size(), 4u);
+  EXPECT_EQ(s.report.kept, static_cast<int64_t>(t.size()));
+  // gap_factor 2.5: a single missing sample is absorbed (not a gap), 3 and 50 still are.
+  SanitizeOptions o;
+  o.gap_factor = 2.5;
+  const auto s2 = sanitize(t, {&v}, o);
+  EXPECT_EQ(s2.report.gaps, 2);
+  EXPECT_EQ(s2.report.missing_samples, 53);
+}
+
+TEST(StampGrid, ExtraSampleIsTooCloseNotDuplicate) {
+  std::vector<double> t;
+  for (int i = 0; i < 3000; ++i) t.push_back(5.0 + i * 0.01);
+  t.insert(t.begin() + 1500, t[1499] + 0.0005);  // a second sample 0.5 ms after its predecessor: no slot for it
+  std::vector<double> v(t.size(), 0.0);
+  const auto s = sanitize(t, {&v});
+  EXPECT_EQ(s.report.too_close, 1);
+  EXPECT_EQ(s.report.duplicate, 0);
+  EXPECT_EQ(s.report.gaps, 0);
+  EXPECT_EQ(s.report.kept, 3000);
+}
+
+TEST(StampGrid, SlowClockDriftIsFollowed) {
+  // The sensor runs 0.3 % slow against the host clock and stamps jitter: no gap, no drop, rate measured.
+  std::vector<double> base = jittered(50000, 0.3, 0.0, 11, 0.01003), v(base.size(), 0.0);
+  const auto s = sanitize(base, {&v});
+  EXPECT_EQ(s.report.gaps, 0);
+  EXPECT_EQ(s.report.kept, 50000);
+  EXPECT_NEAR(1.0 / s.report.rate_hz, 0.01003, 2e-6);
+}
+
+TEST(StampGrid, StreamingDecisionsEqualBatch) {
+  // The grid decides each stamp after its lookahead, and identically however the stream is fed.
+  std::vector<double> t = jittered(3000, 0.5, 0.02, 3);
+  t.erase(t.begin() + 1200, t.begin() + 1210);  // 10 missing
+  StampGrid a(0.01, 1.5, 0.5), b(0.01, 1.5, 0.5);
+  std::vector<StampDecision> da, db;
+  StampDecision d;
+  for (size_t i = 0; i < t.size(); ++i) {
+    a.push(t[i], i);
+    EXPECT_LE(a.pending(), a.lookahead() + 1);
+    while (a.pop(&d)) da.push_back(d);
+  }
+  a.finish();
+  while (a.pop(&d)) da.push_back(d);
+  for (size_t i = 0; i < t.size(); ++i) b.push(t[i], i);
+  b.finish();
+  while (b.pop(&d)) db.push_back(d);
+  ASSERT_EQ(da.size(), t.size());
+  ASSERT_EQ(db.size(), t.size());
+  int64_t missing = 0;
+  for (size_t i = 0; i < da.size(); ++i) {
+    EXPECT_EQ(da[i].verdict, db[i].verdict);
+    EXPECT_EQ(da[i].index, db[i].index);
+    EXPECT_EQ(da[i].tag, i);
+    missing += da[i].missing;
+  }
+  EXPECT_EQ(missing, 10);
+  EXPECT_EQ(da.back().index, static_cast<int64_t>(t.size()) - 1 + 10);
+  EXPECT_THROW(StampGrid(0.0), std::invalid_argument);
+  EXPECT_THROW(StampGrid(0.01, 1.0), std::invalid_argument);
+}
+
+TEST(StampGrid, EstimatePeriodIgnoresJitterBurstsAndGaps) {
+  std::vector<double> t = jittered(10000, 0.5, 0.02, 5, 0.0025);
+  t.erase(t.begin() + 5000, t.begin() + 5400);
+  EXPECT_NEAR(estimatePeriod(t), 0.0025, 0.0025 * 2e-3);
+  // Two-per-packet delivery: intervals alternate ~0 and ~2 periods, the median interval says nothing.
+  std::vector<double> p;
+  for (int i = 0; i < 4000; ++i) p.push_back(1.0 + (i / 2) * 0.02 + (i % 2) * 1e-5);
+  EXPECT_NEAR(estimatePeriod(p), 0.01, 1e-5);
+  EXPECT_EQ(estimatePeriod({}), 0.0);
+}

@@ -51,6 +51,12 @@ SimulatedData simulate(const SimulationSpec& spec);
 /// One axis only (seed mixes with `axis`).
 std::vector<double> simulateAxis(const AxisNoise& noise, double rate_hz, int64_t n, uint64_t seed, int axis = 0);
 
+/// Arrival-time stamps of a driver that stamps on receipt: each sample time t[i] delayed by a uniform 0..jitter
+/// periods, and a fraction `late` of samples held back a further 2..10 periods together with everything queued
+/// behind them (a burst follows); order is kept. Deterministic by seed. jitter >= 0, 0 <= late < 1.
+std::vector<double> receiptStamps(const std::vector<double>& t, double period, double jitter, double late,
+                                  uint64_t seed);
+
 /// Flicker (1/f) rate noise with one-sided PSD B^2/(pi f) (so its AVAR plateau is (2 ln2/pi) B^2): Kasdin's
 /// fractional-integration filter applied by FFT.
 std::vector<double> flickerNoise(int64_t n, double b, uint64_t seed);

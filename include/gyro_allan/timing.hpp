@@ -1,9 +1,11 @@
-// Timestamp and sample sanitation: drops NaN/Inf, out-of-order, duplicate and zero stamps, splits at gaps into
-// gap-free segments, and counts every problem so nothing is lost silently.
+// Timestamp and sample sanitation: finds the regular sampler behind jittered stamps (StampGrid), drops NaN/Inf,
+// out-of-order, duplicate, too-close and zero stamps, splits at real gaps (missing samples) into gap-free segments,
+// and counts every problem so nothing is lost silently.
 #pragma once
 
 #include <array>
 #include <cstdint>
+#include <deque>
 #include <string>
 #include <vector>
 
@@ -17,11 +19,18 @@ struct StampReport {
   int64_t non_finite = 0;      ///< dropped: a NaN/Inf value on any axis
   int64_t zero_stamp = 0;      ///< dropped: stamp == 0
   int64_t out_of_order = 0;    ///< dropped: stamp earlier than the previous kept one
-  int64_t duplicate = 0;       ///< dropped: stamp equal to (or closer than half a period to) the previous kept one
+  int64_t duplicate = 0;       ///< dropped: stamp equal to the previous kept one
+  int64_t too_close = 0;       ///< dropped: arrived over half a period before its grid slot (more samples than slots)
   int64_t short_segment = 0;   ///< dropped: samples of gap-free runs shorter than min_segment (isolated by gaps)
-  int64_t gaps = 0;            ///< splits: interval > gap_factor nominal periods
-  double gap_time_s = 0;       ///< time missing in gaps, s
-  double nominal_period_s = 0; ///< median interval between consecutive kept stamps
+  int64_t gaps = 0;            ///< splits: places where grid slots have no sample (missing samples)
+  int64_t missing_samples = 0; ///< grid slots without a sample, summed over gaps
+  double gap_time_s = 0;       ///< time missing in gaps, s (missing_samples x nominal period)
+  double nominal_period_s = 0; ///< sampler period: median over blocks of (last - first stamp) / (count - 1)
+  /// Stamp jitter: how late kept stamps are after their grid slot (the earliest arrivals define the slots), s.
+  double jitter_p50_s = 0, jitter_p99_s = 0, jitter_max_s = 0;
+  /// Stamps jitter by more than 10 % of a period at the 99th percentile: receipt-time stamps (driver stamps on
+  /// arrival). The samples are placed on the regular grid, not at their stamps.
+  bool receipt_stamps = false;
   double rate_hz = 0;          ///< 1 / nominal_period_s
   double max_rate_deviation = 0;  ///< largest relative difference of a segment's median interval from the nominal
   bool rate_changed = false;   ///< some segment's median interval differs from the nominal by more than 5 %
@@ -55,9 +64,85 @@ struct SanitizedSeries {
 };
 
 struct SanitizeOptions {
-  double gap_factor = 1.5;      ///< an interval longer than this many nominal periods is a gap
-  double nominal_rate_hz = 0;   ///< 0 = estimate from the median interval
+  /// A sample later than its grid slot by more than (gap_factor - 1) periods, with every sample of the following
+  /// lookahead as late, follows missing samples: a gap (1.5: one missing sample is a gap).
+  double gap_factor = 1.5;
+  double nominal_rate_hz = 0;   ///< 0 = estimate from the stamps (estimatePeriod)
   size_t min_segment = 2;       ///< shorter segments are dropped (and counted in gaps)
+  double lookahead_s = 2.0;     ///< StampGrid lookahead (at least 32 samples)
+};
+
+/// Sampler period from stamps alone: the median over blocks of consecutive stamps of (last - first) / (count - 1).
+/// Robust to arrival-time jitter and bursts (a block's end points carry the jitter once, divided by the block
+/// length) and to a minority of blocks holding gaps. Blocks of 64 stamps (fewer for short series); only
+/// increasing stamps count. 0 when fewer than 2 usable stamps.
+double estimatePeriod(const std::vector<double>& t, size_t block = 64);
+
+/// What StampGrid decided about one stamp.
+enum class StampVerdict { Keep, Duplicate, TooClose, OutOfOrder };
+
+struct StampDecision {
+  StampVerdict verdict = StampVerdict::Keep;
+  double stamp = 0;      ///< the stamp decided about, s
+  uint64_t tag = 0;      ///< what the caller pushed with it (e.g. an input index)
+  int64_t index = 0;     ///< grid index (Keep): consecutive kept samples differ by 1 + missing
+  int64_t missing = 0;   ///< grid slots without a sample just before this one (Keep); > 0 is a gap
+  double lag = 0;        ///< stamp - slot time, s (Keep; >= 0 up to the envelope's tolerance)
+};
+
+/// The regular sampler behind jittered stamps. Drivers that stamp on arrival (USB, serial, WiFi) give stamps that
+/// lag the true sample times by a varying delay, with bursts; the samples themselves are evenly spaced. The grid
+/// puts kept sample k at slot time psi + k * period, where the slots follow the earliest arrivals (the lower
+/// envelope of the stamps: lowered by any kept stamp that arrives before its slot, raised to the earliest arrival
+/// of the lookahead, so slow clock drift is followed). Rules, applied to the oldest pending stamp once the
+/// lookahead's newer stamps are known — the same in analyze_bag and the nodelet:
+/// - equal to the last kept stamp: Duplicate; earlier: OutOfOrder;
+/// - more than half a period before its slot (more samples than slots): TooClose;
+/// - otherwise Keep; if every stamp of the lookahead (taken in consecutive pairs, so one early stamp cannot hide
+///   it) is later than its slot by more than (gap_factor - 1) periods, round(lag / period) slots were skipped:
+///   `missing` samples, a gap.
+/// Streaming with a delay of the lookahead; O(1) amortized per stamp.
+class StampGrid {
+ public:
+  /// period > 0 s; gap_factor > 1; lookahead_s >= 0 (at least 32 stamps are always looked ahead).
+  StampGrid(double period, double gap_factor = 1.5, double lookahead_s = 2.0);
+  void push(double stamp, uint64_t tag = 0);
+  /// The oldest pending stamp's decision, once it can be made (enough newer stamps, or finish()); false if none.
+  bool pop(StampDecision* d);
+  /// No more input: every pending stamp can be decided. A push() after finish() starts a new timeline.
+  void finish();
+  size_t pending() const { return q_.size(); }
+  double period() const { return period_; }
+  size_t lookahead() const { return lookahead_; }
+
+ private:
+  struct Entry {
+    double t;         // stamp relative to origin_
+    uint64_t tag;
+    int64_t pos;      // provisional position among candidates (-1: not later than the newest earlier stamp)
+    double u;         // t - pos * period
+    uint64_t seq;
+  };
+  void reset();
+  double windowMin() const;
+  double period_, gap_factor_;
+  size_t lookahead_;
+  std::deque<Entry> q_;
+  // Sliding minimum over pending candidates of v_j = max(u_j, u_of_next_candidate): (seq, v), increasing v.
+  std::deque<std::pair<uint64_t, double>> vmin_;
+  uint64_t next_seq_ = 0;
+  int64_t next_pos_ = 0;
+  bool have_newest_ = false;
+  double newest_ = 0;            // newest candidate stamp (relative)
+  bool tail_open_ = false;       // the newest candidate's v waits for its successor
+  uint64_t tail_seq_ = 0;
+  double tail_u_ = 0;
+  bool finished_ = false;
+  bool have_origin_ = false, have_kept_ = false;
+  double origin_ = 0;            // first stamp: relative stamps keep double precision
+  double psi_ = 0;               // slot time of grid index `shift_` (u-space: lag = u - psi)
+  int64_t shift_ = 0;            // grid index = pos + shift
+  double last_kept_ = 0;
 };
 
 /// Impulsive shocks and saturation on one rate axis. Robust centre and spread (median and MAD of 2^18-2^19

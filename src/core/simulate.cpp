@@ -2,6 +2,7 @@
 #include "gyro_allan/simulate.hpp"
 
 #include <cmath>
+#include <limits>
 #include <complex>
 #include <random>
 #include <stdexcept>
@@ -192,6 +193,23 @@ SimulatedData simulate(const SimulationSpec& spec) {
       d.temperature[static_cast<size_t>(k)] = 25.0 + 10.0 * warmup(d.t[static_cast<size_t>(k)], tau) + 0.01 * rng.normal();
   }
   return d;
+}
+
+std::vector<double> receiptStamps(const std::vector<double>& t, double period, double jitter, double late,
+                                  uint64_t seed) {
+  if (!(period > 0) || !(jitter >= 0) || !(late >= 0 && late < 1) || !std::isfinite(jitter))
+    throw std::invalid_argument("receiptStamps: period > 0, jitter >= 0 and 0 <= late < 1 expected");
+  Rng rng(mixSeed(seed, 99));
+  std::vector<double> out(t.size());
+  double queue_until = -std::numeric_limits<double>::infinity();
+  for (size_t i = 0; i < t.size(); ++i) {
+    double a = t[i] + rng.uniform() * jitter * period;
+    if (late > 0 && rng.uniform() < late) queue_until = std::max(queue_until, t[i] + (2.0 + 8.0 * rng.uniform()) * period);
+    if (a < queue_until) a = queue_until;  // held back: arrives with the burst
+    if (i > 0 && !(a >= out[i - 1] + 1e-6)) a = out[i - 1] + 1e-6;  // a queue keeps the order, 1 us apart
+    out[i] = a;
+  }
+  return out;
 }
 
 }  // namespace gyro_allan

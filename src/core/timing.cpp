@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <stdexcept>
 
 namespace gyro_allan {
@@ -25,10 +26,22 @@ std::vector<std::string> StampReport::warnings() const {
   add(zero_stamp, "samples with zero stamp dropped");
   add(out_of_order, "out-of-order stamps dropped");
   add(duplicate, "duplicate stamps dropped");
+  add(too_close, "samples arrived over half a period before their grid slot (more samples than the rate allows): "
+                 "dropped as too close");
   add(short_segment, "samples isolated between gaps dropped");
-  if (gaps > 0)
-    w.push_back(std::to_string(gaps) + " gaps (" + std::to_string(gap_time_s) +
-                " s missing): deviations computed over gap-free segments");
+  char buf[256];
+  if (gaps > 0) {
+    std::snprintf(buf, sizeof buf, "%lld gaps (%lld samples missing, %.6g s): deviations computed over gap-free segments",
+                  static_cast<long long>(gaps), static_cast<long long>(missing_samples), gap_time_s);
+    w.push_back(buf);
+  }
+  if (receipt_stamps) {
+    std::snprintf(buf, sizeof buf,
+                  "stamps jitter by up to %.3g ms (99 %% within %.3g ms, %.0f %% of a period): arrival-time stamps? "
+                  "samples placed on a regular %.6g Hz grid",
+                  1e3 * jitter_max_s, 1e3 * jitter_p99_s, 100 * jitter_p99_s * rate_hz, rate_hz);
+    w.push_back(buf);
+  }
   if (rate_changed)
     w.push_back("sample rate changes within the record (max " + std::to_string(100 * max_rate_deviation) +
                 " % from nominal)");
@@ -124,6 +137,148 @@ std::vector<std::string> ValueAnomalies::warnings(const std::string& what) const
   return w;
 }
 
+
+double estimatePeriod(const std::vector<double>& t, size_t block) {
+  std::vector<double> inc;  // increasing stamps only (a stale stamp would otherwise shorten its block)
+  inc.reserve(t.size());
+  for (double x : t)
+    if (std::isfinite(x) && (inc.empty() || x > inc.back())) inc.push_back(x);
+  if (inc.size() < 2) return 0;
+  // Blocks of `block` stamps, shorter for short series (at least ~16 blocks, so a few defective ones are a minority).
+  const size_t b = std::max<size_t>(2, std::min(std::max<size_t>(2, block), std::max<size_t>(8, inc.size() / 16)));
+  // Least-squares slope of stamp against index per block: unbiased for packet-wise delivery of any packet size.
+  std::vector<double> slopes;
+  const double kbar = 0.5 * static_cast<double>(b - 1);
+  double sxx = 0;
+  for (size_t k = 0; k < b; ++k) sxx += (static_cast<double>(k) - kbar) * (static_cast<double>(k) - kbar);
+  for (size_t i = 0; i + b <= inc.size(); i += b) {
+    double sxy = 0;
+    for (size_t k = 0; k < b; ++k) sxy += (static_cast<double>(k) - kbar) * (inc[i + k] - inc[i]);
+    slopes.push_back(sxy / sxx);
+  }
+  if (slopes.empty()) slopes.push_back((inc.back() - inc.front()) / static_cast<double>(inc.size() - 1));
+  return median(std::move(slopes));
+}
+
+StampGrid::StampGrid(double period, double gap_factor, double lookahead_s)
+    : period_(period), gap_factor_(gap_factor) {
+  if (!(period > 0) || !std::isfinite(period)) throw std::invalid_argument("StampGrid: period must be > 0");
+  if (!(gap_factor > 1) || !std::isfinite(gap_factor)) throw std::invalid_argument("StampGrid: gap_factor must be > 1");
+  if (!(lookahead_s >= 0) || !std::isfinite(lookahead_s))
+    throw std::invalid_argument("StampGrid: lookahead must be >= 0 s");
+  lookahead_ = std::max<size_t>(32, static_cast<size_t>(std::min(1e7, std::ceil(lookahead_s / period))));
+}
+
+void StampGrid::reset() {
+  q_.clear();
+  vmin_.clear();
+  next_pos_ = 0;
+  have_newest_ = tail_open_ = finished_ = have_origin_ = have_kept_ = false;
+  psi_ = 0;
+  shift_ = 0;
+}
+
+void StampGrid::push(double stamp, uint64_t tag) {
+  if (finished_) reset();
+  if (!have_origin_) {
+    origin_ = stamp;
+    have_origin_ = true;
+  }
+  Entry e;
+  e.t = stamp - origin_;
+  e.tag = tag;
+  e.seq = next_seq_++;
+  if (have_newest_ && !(e.t > newest_)) {
+    e.pos = -1;  // not later than an earlier stamp: decided as duplicate / out of order, takes no position
+    e.u = 0;
+  } else {
+    e.pos = next_pos_++;
+    e.u = e.t - static_cast<double>(e.pos) * period_;
+    newest_ = e.t;
+    have_newest_ = true;
+    if (tail_open_) {  // the previous candidate's pair value is now known
+      const double v = std::max(tail_u_, e.u);
+      while (!vmin_.empty() && vmin_.back().second >= v) vmin_.pop_back();
+      vmin_.emplace_back(tail_seq_, v);
+    }
+    tail_open_ = true;
+    tail_seq_ = e.seq;
+    tail_u_ = e.u;
+  }
+  q_.push_back(e);
+}
+
+void StampGrid::finish() {
+  finished_ = true;
+  if (tail_open_) {
+    while (!vmin_.empty() && vmin_.back().second >= tail_u_) vmin_.pop_back();
+    vmin_.emplace_back(tail_seq_, tail_u_);
+    tail_open_ = false;
+  }
+}
+
+double StampGrid::windowMin() const {
+  if (!vmin_.empty()) return vmin_.front().second;
+  return tail_open_ ? tail_u_ : std::numeric_limits<double>::infinity();
+}
+
+bool StampGrid::pop(StampDecision* d) {
+  if (q_.empty() || (!finished_ && q_.size() <= lookahead_)) return false;
+  const Entry e = q_.front();
+  q_.pop_front();
+  while (!vmin_.empty() && vmin_.front().first <= e.seq) vmin_.pop_front();
+  if (tail_open_ && tail_seq_ == e.seq && q_.empty()) tail_open_ = false;
+  d->stamp = e.t + origin_;
+  d->tag = e.tag;
+  d->index = 0;
+  d->missing = 0;
+  d->lag = 0;
+  if (e.pos < 0 || (have_kept_ && !(e.t > last_kept_))) {
+    d->verdict = (have_kept_ && e.t == last_kept_) ? StampVerdict::Duplicate : StampVerdict::OutOfOrder;
+    return true;
+  }
+  // The window's earliest arrival relative to the slots, in consecutive pairs (this entry's pair included).
+  const double w = std::min(windowMin(), e.u);  // e's own pair left vmin_ with it: e counts alone
+  if (!have_kept_) {
+    // First sample: the slots start at the earliest arrival among it and the lookahead.
+    double m = e.u;
+    for (const auto& x : q_)
+      if (x.pos >= 0) m = std::min(m, x.u);
+    psi_ = m;
+    shift_ = -e.pos;
+  } else {
+    const double lag = e.u - psi_;
+    if (lag < -0.5 * period_) {
+      d->verdict = StampVerdict::TooClose;
+      // Later candidates were numbered counting this one: their slots move one period earlier.
+      psi_ -= period_;
+      --shift_;
+      return true;
+    }
+    const double min_lag = w - psi_;
+    if (min_lag > (gap_factor_ - 1.0) * period_) {
+      const int64_t m = std::max<int64_t>(1, std::llround(min_lag / period_));
+      d->missing = m;
+      shift_ += m;
+      psi_ += static_cast<double>(m) * period_;
+    }
+  }
+  d->verdict = StampVerdict::Keep;
+  d->index = e.pos + shift_;
+  d->lag = e.u - psi_;
+  // The envelope: lowered by an early arrival now, raised to the earliest arrival ahead.
+  if (d->lag < 0) {
+    psi_ += d->lag;
+    d->lag = 0;
+  } else {
+    const double ahead = windowMin() - psi_;
+    if (std::isfinite(ahead) && ahead > 0) psi_ += std::min(ahead, d->lag);
+  }
+  have_kept_ = true;
+  last_kept_ = e.t;
+  return true;
+}
+
 namespace {
 
 /// sanitize() for any axis container with size() and operator[] (std::vector<double>, CompactSeries).
@@ -169,28 +324,21 @@ SanitizedSeries sanitizeImpl(const std::vector<double>& t, const std::vector<con
     idx.resize(kept);
     idx.shrink_to_fit();
   }
-  // Nominal period: the median of positive consecutive intervals (robust to a few bad stamps).
+  // Nominal period: given, or the median block slope of the stamps (robust to jitter and bursts).
   double period = options.nominal_rate_hz > 0 ? 1.0 / options.nominal_rate_hz : 0.0;
   if (period <= 0) {
-    std::vector<double> d;
-    d.reserve(idx.size());
-    for (size_t k = 1; k < idx.size(); ++k) {
-      const double dt = t[idx[k]] - t[idx[k - 1]];
-      if (dt > 0) d.push_back(dt);
-    }
-    period = median(std::move(d));  // selection in place: no second copy of a long record
+    std::vector<double> ts(idx.size());
+    for (size_t k = 0; k < idx.size(); ++k) ts[k] = t[idx[k]];
+    period = estimatePeriod(ts);
   }
-  // Pass 2: keep strictly increasing stamps at least half a period apart; split at gaps.
+  // Pass 2: place the stamps on the sampler's grid (StampGrid); split where grid slots have no sample.
   out.t.reserve(idx.size());
   if (keep_values) {
     for (size_t a = 0; a < axes.size(); ++a) out.v[a].reserve(idx.size());
   } else {
     out.kept.reserve(idx.size());
   }
-  bool have_prev = false;
-  double prev = 0;
   size_t seg_start = 0;
-  std::vector<double> seg_periods;
   auto closeSegment = [&](size_t end) {
     if (end > seg_start) {
       if (end - seg_start >= options.min_segment) out.segments.push_back({seg_start, end});
@@ -208,45 +356,68 @@ SanitizedSeries sanitizeImpl(const std::vector<double>& t, const std::vector<con
     }
     seg_start = out.t.size();
   };
-  // Median interval of the run being closed (the intervals between its consecutive kept stamps), computed when it
-  // ends from the kept stamps themselves.
-  auto segmentPeriod = [&]() {
-    const size_t n = out.t.size();
-    if (n < seg_start + 2) return;
-    std::vector<double> d(n - seg_start - 1);
-    for (size_t j = seg_start + 1; j < n; ++j) d[j - seg_start - 1] = out.t[j] - out.t[j - 1];
-    seg_periods.push_back(median(std::move(d)));
-  };
-  for (size_t k = 0; k < idx.size(); ++k) {
-    const size_t i = idx[k];
-    const double ti = t[i];
-    if (have_prev) {
-      const double dt = ti - prev;
-      if (dt < 0) {
-        ++rep.out_of_order;
-        continue;
-      }
-      if (period > 0 ? dt < 0.5 * period : dt == 0) {
-        ++rep.duplicate;
-        continue;
-      }
-      if (period > 0 && dt > options.gap_factor * period) {
-        ++rep.gaps;
-        rep.gap_time_s += dt - period;
-        segmentPeriod();
-        closeSegment(out.t.size());
-      }
+  // Rate check: the slope of stamp against grid index over chunks of kept samples (about 20 per record), so that
+  // neither jitter nor gaps look like a rate change.
+  const size_t chunk = std::max<size_t>(64, idx.size() / 20);
+  size_t chunk_n = 0;
+  double chunk_t0 = 0;
+  int64_t chunk_k0 = 0;
+  // Jitter: lags of a subsample of kept stamps (at most ~65536), for percentiles.
+  const size_t lag_step = std::max<size_t>(1, idx.size() >> 16);
+  std::vector<float> lags;
+  size_t n_keep = 0;
+  bool have_prev = false;
+  auto handle = [&](const StampDecision& d) {
+    switch (d.verdict) {
+      case StampVerdict::Duplicate: ++rep.duplicate; return;
+      case StampVerdict::OutOfOrder: ++rep.out_of_order; return;
+      case StampVerdict::TooClose: ++rep.too_close; return;
+      case StampVerdict::Keep: break;
     }
-    out.t.push_back(ti);
+    if (have_prev && d.missing > 0) {
+      ++rep.gaps;
+      rep.missing_samples += d.missing;
+      rep.gap_time_s += static_cast<double>(d.missing) * period;
+      closeSegment(out.t.size());
+    }
+    if (n_keep++ % lag_step == 0) lags.push_back(static_cast<float>(d.lag));
+    rep.jitter_max_s = std::max(rep.jitter_max_s, d.lag);
+    if (chunk_n == 0) {
+      chunk_t0 = d.stamp;
+      chunk_k0 = d.index;
+    }
+    if (++chunk_n == chunk) {
+      if (d.index > chunk_k0)
+        rep.max_rate_deviation = std::max(
+            rep.max_rate_deviation, std::fabs((d.stamp - chunk_t0) / static_cast<double>(d.index - chunk_k0) / period - 1.0));
+      chunk_n = 0;
+    }
+    const size_t i = static_cast<size_t>(d.tag);
+    out.t.push_back(t[i]);
     if (keep_values) {
       for (size_t a = 0; a < axes.size(); ++a) out.v[a].push_back((*axes[a])[i]);
     } else {
       out.kept.push_back(static_cast<uint32_t>(i));
     }
-    prev = ti;
     have_prev = true;
+  };
+  if (period > 0) {
+    StampGrid grid(period, options.gap_factor, options.lookahead_s);
+    StampDecision d;
+    for (size_t k = 0; k < idx.size(); ++k) {
+      grid.push(t[idx[k]], idx[k]);
+      while (grid.pop(&d)) handle(d);
+    }
+    grid.finish();
+    while (grid.pop(&d)) handle(d);
+  } else if (!idx.empty()) {
+    // One usable stamp (or all equal): keep the first, the rest are duplicates.
+    StampDecision d;
+    d.stamp = t[idx[0]];
+    d.tag = idx[0];
+    handle(d);
+    for (size_t k = 1; k < idx.size(); ++k) ++(t[idx[k]] == t[idx[0]] ? rep.duplicate : rep.out_of_order);
   }
-  segmentPeriod();
   closeSegment(out.t.size());
   std::vector<uint32_t>().swap(idx);
   // Nothing dropped (the usual case): the kept index is the identity and is not stored.
@@ -254,25 +425,12 @@ SanitizedSeries sanitizeImpl(const std::vector<double>& t, const std::vector<con
   rep.kept = static_cast<int64_t>(out.t.size());
   rep.nominal_period_s = period;
   rep.rate_hz = period > 0 ? 1.0 / period : 0.0;
-  for (double p : seg_periods) rep.max_rate_deviation = std::max(rep.max_rate_deviation, std::fabs(p / period - 1.0));
-  // A rate change without a gap (e.g. 100 -> 125 Hz) stays inside one segment: compare the median interval of
-  // consecutive blocks (20 per record, at least 16 intervals each) with the nominal period.
-  {
-    // The intervals of all segments in order, taken block by block (one block in memory at a time).
-    size_t total = 0;
-    for (const auto& seg : out.segments) total += seg.size() - 1;
-    const size_t block = std::max<size_t>(16, total / 20);
-    std::vector<double> chunk;
-    chunk.reserve(block);
-    for (const auto& seg : out.segments)
-      for (size_t i = seg.begin + 1; i < seg.end; ++i) {
-        chunk.push_back(out.t[i] - out.t[i - 1]);
-        if (chunk.size() == block) {
-          rep.max_rate_deviation = std::max(rep.max_rate_deviation, std::fabs(median(chunk) / period - 1.0));
-          chunk.clear();
-        }
-      }
+  if (!lags.empty()) {
+    std::sort(lags.begin(), lags.end());
+    rep.jitter_p50_s = lags[lags.size() / 2];
+    rep.jitter_p99_s = lags[std::min(lags.size() - 1, static_cast<size_t>(0.99 * static_cast<double>(lags.size())))];
   }
+  rep.receipt_stamps = period > 0 && rep.jitter_p99_s > 0.1 * period;
   rep.rate_changed = rep.max_rate_deviation > 0.05;
   if (!out.t.empty()) {
     rep.first_stamp = out.t.front();

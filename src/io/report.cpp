@@ -190,10 +190,18 @@ YAML::Node buildReport(const ReportMeta& meta, const std::vector<AxisAnalysis>& 
   st["zero_stamp"] = meta.stamps.zero_stamp;
   st["out_of_order"] = meta.stamps.out_of_order;
   st["duplicate"] = meta.stamps.duplicate;
+  st["too_close"] = meta.stamps.too_close;
   st["short_segment"] = meta.stamps.short_segment;
   st["gaps"] = meta.stamps.gaps;
+  st["missing_samples"] = meta.stamps.missing_samples;
   st["gap_time_s"] = num(meta.stamps.gap_time_s);
   st["rate_changed"] = meta.stamps.rate_changed;
+  st["receipt_stamps"] = meta.stamps.receipt_stamps;
+  YAML::Node jit;
+  jit["p50_s"] = num(meta.stamps.jitter_p50_s);
+  jit["p99_s"] = num(meta.stamps.jitter_p99_s);
+  jit["max_s"] = num(meta.stamps.jitter_max_s);
+  st["jitter"] = jit;
   r["stamps"] = st;
   r["warnings"] = YAML::Node(YAML::NodeType::Sequence);
   for (const auto& w : meta.warnings) r["warnings"].push_back(w);

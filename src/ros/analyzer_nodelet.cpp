@@ -21,13 +21,6 @@ const char* const kAxisName[3] = {"x", "y", "z"};
 const char* const kTermLabel[kNumTerms] = {"quantization", "angle random walk", "bias instability",
                                            "rate random walk", "rate ramp"};
 
-double median(std::vector<double> v) {
-  if (v.empty()) return 0;
-  const size_t h = v.size() / 2;
-  std::nth_element(v.begin(), v.begin() + h, v.end());
-  return v[h];
-}
-
 NoiseCoefficient toMsg(const Coefficient& c) {
   NoiseCoefficient m;
   m.value = c.value;
@@ -129,6 +122,11 @@ void AnalyzerNodelet::loadParams() {
   if (p_.learn_samples < 10) {
     NODELET_ERROR("parameter ~learn_samples = %d must be >= 10; using %d", p_.learn_samples, def.learn_samples);
     p_.learn_samples = def.learn_samples;
+  }
+  getD("lookahead_s", &p_.lookahead_s, def.lookahead_s);
+  if (!(p_.lookahead_s >= 0 && p_.lookahead_s <= 60)) {
+    NODELET_ERROR("parameter ~lookahead_s = %g must be in [0, 60]; using %g", p_.lookahead_s, def.lookahead_s);
+    p_.lookahead_s = def.lookahead_s;
   }
   getD("gap_factor", &p_.gap_factor, def.gap_factor);
   if (!(p_.gap_factor > 1.0)) {
@@ -289,10 +287,15 @@ void AnalyzerNodelet::initAccumulators(double tau0) {
   tau0_ = tau0;
   measured_rate_hz_ = 1.0 / tau0;
   freq_min_ = freq_max_ = 1.0 / tau0;
-  recent_dt_.clear();
+  recent_kept_.clear();
   dt_since_check_ = 0;
   seg_stamps_.clear();
   have_hop_ = false;
+  // The sampler's grid at this period; samples still in the old grid's lookahead go through the new one.
+  grid_.reset(new StampGrid(tau0, p_.gap_factor, p_.lookahead_s));
+  for (const auto& s : grid_values_) grid_->push(s.stamp.toSec());
+  new_timeline_ = true;
+  reinit_period_ = 0;
   NODELET_INFO("gyro_allan analyzer: nominal rate %.6g Hz, window %lld samples (%.1f MB for 3 axes)", 1.0 / tau0,
                static_cast<long long>(o.window_samples), 3.0 * allan_[0]->memoryBytes() / 1e6);
 }
@@ -328,31 +331,35 @@ bool AnalyzerNodelet::isSaturated(const std::array<double, 3>& v) {
   return sat;
 }
 
-void AnalyzerNodelet::checkRate(double dt) {
-  // Median of the last 128 intervals, checked every 64: robust to isolated gaps and jitter.
-  recent_dt_.push_back(dt);
-  if (recent_dt_.size() > 128) recent_dt_.pop_front();
-  if (++dt_since_check_ < 64 || recent_dt_.size() < 128) return;
+bool AnalyzerNodelet::checkRate(const ros::Time& stamp, int64_t index) {
+  // Slope of stamp against grid index over the last 128 kept samples, checked every 64: neither arrival jitter nor
+  // missing samples move it, a real rate change does. Returns true when the accumulators must restart.
+  recent_kept_.emplace_back(stamp.toSec(), index);
+  if (recent_kept_.size() > 129) recent_kept_.pop_front();
+  if (++dt_since_check_ < 64 || recent_kept_.size() < 129) return false;
   dt_since_check_ = 0;
-  const double med = median(std::vector<double>(recent_dt_.begin(), recent_dt_.end()));
-  if (!(med > 0)) return;
-  measured_rate_hz_ = 1.0 / med;
-  const bool off = std::fabs(med - tau0_) > p_.rate_tolerance * tau0_;
+  const int64_t dk = recent_kept_.back().second - recent_kept_.front().second;
+  if (dk <= 0) return false;
+  const double slope = (recent_kept_.back().first - recent_kept_.front().first) / static_cast<double>(dk);
+  if (!(slope > 0)) return false;
+  measured_rate_hz_ = 1.0 / slope;
+  const bool off = std::fabs(slope - tau0_) > p_.rate_tolerance * tau0_;
   if (!off) {
     rate_mismatch_ = false;
-    return;
+    return false;
   }
   if (p_.expected_rate_hz > 0) {
     if (!rate_mismatch_) {
       rate_change_.add(ros::Time::now());
-      NODELET_ERROR("input rate %.6g Hz differs from ~expected_rate_hz = %.6g Hz", 1.0 / med, p_.expected_rate_hz);
+      NODELET_ERROR("input rate %.6g Hz differs from ~expected_rate_hz = %.6g Hz", 1.0 / slope, p_.expected_rate_hz);
     }
     rate_mismatch_ = true;
-    return;
+    return false;
   }
   rate_change_.add(ros::Time::now());
-  NODELET_WARN("input rate changed from %.6g Hz to %.6g Hz: restarting the window", 1.0 / tau0_, 1.0 / med);
-  initAccumulators(med);
+  NODELET_WARN("input rate changed from %.6g Hz to %.6g Hz: restarting the window", 1.0 / tau0_, 1.0 / slope);
+  reinit_period_ = slope;
+  return true;
 }
 
 void AnalyzerNodelet::processSample(Source source, const ros::Time& stamp, const std::array<double, 3>& v,
@@ -405,7 +412,6 @@ void AnalyzerNodelet::processSample(Source source, const ros::Time& stamp, const
       return;
     }
 
-    const double dt = (have_last_ && !restart) ? (stamp - last_stamp_).toSec() : 0.0;
     const bool first = !have_last_;
     have_last_ = true;
     last_stamp_ = stamp;
@@ -413,41 +419,75 @@ void AnalyzerNodelet::processSample(Source source, const ros::Time& stamp, const
     ++accepted_;
     last_accept_wall_ = now;
 
-    if (tau0_ <= 0) {  // learning the rate: samples are not analysed yet
-      if (!first && !dropped_since_last_ && !restart) learn_dt_.push_back(dt);
+    if (tau0_ <= 0) {  // learning the rate from the stamps: these samples are not analysed
+      if (first || restart) learn_t_.clear();
+      learn_t_.push_back(stamp.toSec());
       dropped_since_last_ = false;
-      if (static_cast<int>(learn_dt_.size()) >= p_.learn_samples) {
-        const double med = median(learn_dt_);
-        learn_dt_.clear();
-        if (med > 0 && std::isfinite(med)) initAccumulators(med);
+      if (static_cast<int>(learn_t_.size()) > p_.learn_samples) {
+        const double period = estimatePeriod(learn_t_);
+        learn_t_.clear();
+        if (period > 0 && std::isfinite(period)) initAccumulators(period);
       }
       return;
     }
-
-    bool gap = false;
-    if (!first) {
-      if (restart || dt > p_.gap_factor * tau0_) {
-        gap = true;
-        if (!dropped_since_last_ && !restart) gap_.add(now);  // a gap we caused by dropping samples is not one
-      }
-      if (!restart) checkRate(dt);  // may restart the accumulators (rate change)
+    if (restart) {
+      // The timeline restarts: everything in the lookahead is decided on the old one first.
+      grid_->finish();
+      drainGrid();
+      new_timeline_ = true;
+      have_hop_ = false;  // the hop clock restarts with the new timeline (not at the glitch's stamp)
     }
+    grid_values_.push_back({stamp, v, dropped_since_last_});
     dropped_since_last_ = false;
-    const bool new_seg = gap || seg_stamps_.empty() || allan_[0]->phasePoints() == 0;
-    if (gap)
-      for (auto& a : allan_) a->newSegment();
-    for (int a = 0; a < 3; ++a) {
-      if (source == Source::Imu) allan_[a]->addRate(v[a]);
-      else if (increments) allan_[a]->addIncrement(v[a]);
-      else allan_[a]->addAngle(v[a]);
-    }
-    // Segment bookkeeping for the window's start stamp.
-    if (new_seg) seg_stamps_.emplace_back(stamp, 0);
-    seg_stamps_.back().second += (new_seg && rate_like) ? 2 : 1;
-    maybeHop(stamp);
+    grid_->push(stamp.toSec());
+    drainGrid();
   } catch (const std::exception& e) {
     NODELET_ERROR_THROTTLE(5.0, "gyro_allan analyzer: sample dropped: %s", e.what());
   }
+}
+
+void AnalyzerNodelet::drainGrid() {
+  StampDecision d;
+  while (grid_->pop(&d)) {
+    onDecision(d);
+    if (reinit_period_ > 0) initAccumulators(reinit_period_);  // re-pushes what is still pending
+  }
+}
+
+void AnalyzerNodelet::onDecision(const StampDecision& d) {
+  const PendingSample smp = grid_values_.front();
+  grid_values_.pop_front();
+  const ros::Time now = ros::Time::now();
+  switch (d.verdict) {
+    case StampVerdict::Duplicate: duplicate_.add(now); return;
+    case StampVerdict::OutOfOrder: out_of_order_.add(now); return;
+    case StampVerdict::TooClose: too_close_.add(now); return;
+    case StampVerdict::Keep: break;
+  }
+  if (d.missing > 0) {
+    missing_total_ += d.missing;
+    if (!smp.dropped_before) gap_.add(now);  // a gap we caused by dropping samples is not a stamp problem
+  }
+  lag_max_total_ = std::max(lag_max_total_, d.lag);
+  lag_max_recent_ = std::max(lag_max_recent_, d.lag);
+  const bool gap = d.missing > 0 || new_timeline_;
+  new_timeline_ = false;
+  if (checkRate(smp.stamp, d.index)) return;  // the caller restarts the accumulators at the new rate
+  const Source source = source_;
+  const bool increments = source == Source::Angle && p_.angle_mode == "increment";
+  const bool rate_like = source == Source::Imu || increments;
+  const bool new_seg = gap || seg_stamps_.empty() || allan_[0]->phasePoints() == 0;
+  if (gap)
+    for (auto& a : allan_) a->newSegment();
+  for (int a = 0; a < 3; ++a) {
+    if (source == Source::Imu) allan_[a]->addRate(smp.v[a]);
+    else if (increments) allan_[a]->addIncrement(smp.v[a]);
+    else allan_[a]->addAngle(smp.v[a]);
+  }
+  // Segment bookkeeping for the window's start stamp.
+  if (new_seg) seg_stamps_.emplace_back(smp.stamp, 0);
+  seg_stamps_.back().second += (new_seg && rate_like) ? 2 : 1;
+  maybeHop(smp.stamp);
 }
 
 void AnalyzerNodelet::maybeHop(const ros::Time& stamp) {
@@ -709,9 +749,9 @@ void AnalyzerNodelet::diagStamps(diagnostic_updater::DiagnosticStatusWrapper& st
   std::lock_guard<std::mutex> lock(mutex_);
   const ros::Time now = ros::Time::now();
   const size_t ooo = out_of_order_.recent(now, p_.recent_s), dup = duplicate_.recent(now, p_.recent_s),
-               zero = zero_stamp_.recent(now, p_.recent_s), gaps = gap_.recent(now, p_.recent_s),
-               rate = rate_change_.recent(now, p_.recent_s);
-  const size_t bad = ooo + dup + zero;
+               close = too_close_.recent(now, p_.recent_s), zero = zero_stamp_.recent(now, p_.recent_s),
+               gaps = gap_.recent(now, p_.recent_s), rate = rate_change_.recent(now, p_.recent_s);
+  const size_t bad = ooo + dup + close + zero;
   const double expected = tau0_ > 0 ? p_.recent_s / tau0_ : 0;
   if (rate_mismatch_) {
     stat.summary(diagnostic_msgs::DiagnosticStatus::ERROR, "input rate differs from ~expected_rate_hz");
@@ -725,18 +765,27 @@ void AnalyzerNodelet::diagStamps(diagnostic_updater::DiagnosticStatusWrapper& st
   stat.add("recent window (s)", p_.recent_s);
   stat.add("out of order (recent)", ooo);
   stat.add("duplicates (recent)", dup);
+  stat.add("too close (recent)", close);
   stat.add("zero stamps (recent)", zero);
   stat.add("gaps (recent)", gaps);
   stat.add("rate changes (recent)", rate);
   stat.add("out of order (total)", out_of_order_.total);
   stat.add("timeline restarts after a stamp glitch (total)", timeline_restarts_);
   stat.add("duplicates (total)", duplicate_.total);
+  stat.add("too close (total)", too_close_.total);
   stat.add("zero stamps (total)", zero_stamp_.total);
   stat.add("gaps (total)", gap_.total);
+  stat.add("missing samples (total)", missing_total_);
+  // Arrival-time stamps (drivers that stamp on receipt) jitter; the grid absorbs it. Shown, not a problem.
+  stat.add("stamp lag behind the grid, max since last report (s)", lag_max_recent_);
+  stat.add("stamp lag behind the grid, max (s)", lag_max_total_);
+  stat.add("arrival-time stamps", tau0_ > 0 && lag_max_total_ > 0.1 * tau0_ ? "yes (placed on the grid)" : "no");
+  stat.add("grid lookahead (samples)", grid_ ? grid_->lookahead() : 0);
+  lag_max_recent_ = 0;
   stat.add("rate changes (total)", rate_change_.total);
   stat.add("nominal rate (Hz)", tau0_ > 0 ? 1.0 / tau0_ : 0.0);
   stat.add("measured rate (Hz)", measured_rate_hz_);
-  stat.add("gap threshold (s)", tau0_ * p_.gap_factor);
+  stat.add("gap threshold: missing samples late by (s)", tau0_ * (p_.gap_factor - 1.0));
 }
 
 void AnalyzerNodelet::diagValues(diagnostic_updater::DiagnosticStatusWrapper& stat) {
@@ -768,7 +817,7 @@ void AnalyzerNodelet::diagWindow(diagnostic_updater::DiagnosticStatusWrapper& st
   const ros::Time now = ros::Time::now();
   if (!allan_[0]) {
     stat.summary(diagnostic_msgs::DiagnosticStatus::OK, "learning the input rate");
-    stat.add("intervals collected", learn_dt_.size());
+    stat.add("stamps collected", learn_t_.size());
     return;
   }
   const bool stale = accepted_ == 0 || (now - last_accept_wall_).toSec() > p_.recent_s;

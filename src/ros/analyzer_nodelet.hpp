@@ -23,6 +23,7 @@
 #include "gyro_allan/allan.hpp"
 #include "gyro_allan/noise_model.hpp"
 #include "gyro_allan/sliding_allan.hpp"
+#include "gyro_allan/timing.hpp"
 
 namespace gyro_allan {
 
@@ -35,10 +36,11 @@ struct AnalyzerParams {
   std::string method = "joint_fit";
   std::string input = "auto";      ///< imu | angle | auto (first topic that delivers)
   std::string angle_mode = "accumulated";  ///< accumulated | increment
-  double expected_rate_hz = 0;     ///< 0: learn from the median interval of the first learn_samples intervals
+  double expected_rate_hz = 0;     ///< 0: learn from the first learn_samples stamps (estimatePeriod)
   int learn_samples = 200;
-  double gap_factor = 1.5;         ///< an interval > gap_factor / rate starts a new segment
-  double rate_tolerance = 0.1;     ///< relative deviation of the median interval that counts as a rate change
+  double gap_factor = 1.5;         ///< StampGrid: samples missing (late by > gap_factor - 1 periods) start a segment
+  double lookahead_s = 2.0;        ///< StampGrid lookahead: samples are analysed this much later than they arrive
+  double rate_tolerance = 0.1;     ///< relative deviation of the stamp-vs-grid slope that counts as a rate change
   double saturation_limit = 0;     ///< |value| >= limit is saturated (0: only the repeated-extreme rule)
   int saturation_run = 5;          ///< identical extreme values in a row that count as saturated (0: off)
   int64_t min_fit_samples = 1000;  ///< samples in the window before the first fit
@@ -95,7 +97,15 @@ class AnalyzerNodelet : public nodelet::Nodelet {
   void processSample(Source source, const ros::Time& stamp, const std::array<double, 3>& v,
                      const std::string& frame_id);
   bool isSaturated(const std::array<double, 3>& v);
-  void checkRate(double dt);
+  /// One sample waiting in the StampGrid's lookahead.
+  struct PendingSample {
+    ros::Time stamp;
+    std::array<double, 3> v;
+    bool dropped_before = false;  ///< a sample was dropped (NaN, saturated) just before this one
+  };
+  void drainGrid();
+  void onDecision(const StampDecision& d);
+  bool checkRate(const ros::Time& stamp, int64_t index);
   void maybeHop(const ros::Time& stamp);
   void workerLoop();
   void publishResults(const Snapshot& snap);
@@ -122,7 +132,13 @@ class AnalyzerNodelet : public nodelet::Nodelet {
   std::mutex mutex_;
   Source source_ = Source::None;
   double tau0_ = 0;                          ///< nominal interval, 0 while learning
-  std::vector<double> learn_dt_;
+  std::vector<double> learn_t_;              ///< stamps while learning the rate
+  std::unique_ptr<StampGrid> grid_;          ///< the sampler's grid behind the stamps (same rule as analyze_bag)
+  std::deque<PendingSample> grid_values_;    ///< samples in the grid's lookahead, in push order
+  bool new_timeline_ = true;                 ///< the next kept sample starts a segment
+  double reinit_period_ = 0;                 ///< > 0: a rate change was seen; restart at this period
+  int64_t missing_total_ = 0;                ///< grid slots without a sample
+  double lag_max_total_ = 0, lag_max_recent_ = 0;  ///< stamp lag behind the grid slot [s]
   std::array<std::unique_ptr<SlidingAllan>, 3> allan_;
   bool have_last_ = false;
   ros::Time last_stamp_;
@@ -132,7 +148,7 @@ class AnalyzerNodelet : public nodelet::Nodelet {
   ros::Time ooo_last_;
   size_t timeline_restarts_ = 0;
   bool dropped_since_last_ = false;          ///< a sample was dropped since the last accepted one
-  std::deque<double> recent_dt_;             ///< last intervals for rate-change detection
+  std::deque<std::pair<double, int64_t>> recent_kept_;  ///< (stamp, grid index) of the last kept samples
   int64_t dt_since_check_ = 0;
   bool rate_mismatch_ = false;               ///< fixed expected rate but the median interval disagrees
   double measured_rate_hz_ = 0;
@@ -146,7 +162,7 @@ class AnalyzerNodelet : public nodelet::Nodelet {
   int64_t temp_count_ = 0;
   uint64_t accepted_ = 0;
   ros::Time last_accept_wall_;
-  EventLog out_of_order_, duplicate_, zero_stamp_, gap_, rate_change_, nonfinite_, saturated_, other_source_,
+  EventLog out_of_order_, duplicate_, too_close_, zero_stamp_, gap_, rate_change_, nonfinite_, saturated_, other_source_,
       skipped_fits_;
 
   // ---- worker (guarded by work_mutex_) ----

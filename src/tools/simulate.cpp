@@ -45,6 +45,8 @@ Output:
   --accel-lsb L             round accelerometer samples to L [m/s^2] (default 0: no rounding)
   --compression C           none | bz2 | lz4 (default lz4)
   --start-time T            stamp of the first sample, s since epoch (default 1700000000)
+  --stamp-jitter F          stamp on arrival: delay each stamp by a uniform 0..F periods (default 0)
+  --late-fraction P         ... and hold back a fraction P of samples 2..10 periods (a burst follows; default 0)
 )";
 
 double num(const std::string& flag, const char* v) {
@@ -63,7 +65,7 @@ int main(int argc, char** argv) {
   SimulationSpec spec;
   AxisNoise a;
   std::string output, topic = "/imu", frame = "imu_link", compression = "lz4";
-  double accel_noise = 1e-3, accel_lsb = 0, start_time = 1700000000.0;
+  double accel_noise = 1e-3, accel_lsb = 0, start_time = 1700000000.0, stamp_jitter = 0, late_fraction = 0;
   for (int i = 1; i < argc; ++i) {
     const std::string s = argv[i];
     auto v = [&]() -> const char* {
@@ -104,6 +106,8 @@ int main(int argc, char** argv) {
     else if (s == "--accel-lsb") accel_lsb = num(s, v());
     else if (s == "--compression") compression = v();
     else if (s == "--start-time") start_time = num(s, v());
+    else if (s == "--stamp-jitter") stamp_jitter = num(s, v());
+    else if (s == "--late-fraction") late_fraction = num(s, v());
     else {
       std::cerr << "simulate: error: unknown option " << s << " (see --help)\n";
       return 1;
@@ -121,6 +125,9 @@ int main(int argc, char** argv) {
   SimulatedData d;
   try {
     d = simulate(spec);
+    // The stamps a receipt-stamping driver would give (the samples stay evenly spaced; only their stamps move).
+    if (stamp_jitter > 0 || late_fraction > 0)
+      d.t = receiptStamps(d.t, 1.0 / spec.rate_hz, stamp_jitter, late_fraction, spec.seed);
   } catch (const std::exception& e) {
     std::cerr << "simulate: error: " << e.what() << "\n";
     return 1;
