@@ -56,7 +56,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const StampReport& rep = ss.report;
   // Nothing lost: every input sample is kept or counted under exactly one reason.
   if (rep.input != static_cast<int64_t>(t.size())) __builtin_trap();
-  if (rep.kept + rep.non_finite + rep.zero_stamp + rep.out_of_order + rep.duplicate + rep.short_segment != rep.input)
+  if (rep.kept + rep.non_finite + rep.zero_stamp + rep.out_of_order + rep.duplicate + rep.too_close + rep.short_segment !=
+      rep.input)
     __builtin_trap();
   if (rep.kept != static_cast<int64_t>(ss.t.size())) __builtin_trap();
   size_t in_segments = 0;
