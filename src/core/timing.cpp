@@ -138,26 +138,44 @@ std::vector<std::string> ValueAnomalies::warnings(const std::string& what) const
 }
 
 
-double estimatePeriod(const std::vector<double>& t, size_t block) {
-  std::vector<double> inc;  // increasing stamps only (a stale stamp would otherwise shorten its block)
-  inc.reserve(t.size());
-  for (double x : t)
-    if (std::isfinite(x) && (inc.empty() || x > inc.back())) inc.push_back(x);
-  if (inc.size() < 2) return 0;
+namespace {
+/// estimatePeriod over n stamps given by at(i): at most ~2048 blocks, evenly spread over the record.
+template <class At>
+double estimatePeriodImpl(size_t n, At at, size_t block) {
+  if (n < 2) return 0;
   // Blocks of `block` stamps, shorter for short series (at least ~16 blocks, so a few defective ones are a minority).
-  const size_t b = std::max<size_t>(2, std::min(std::max<size_t>(2, block), std::max<size_t>(8, inc.size() / 16)));
-  // Least-squares slope of stamp against index per block: unbiased for packet-wise delivery of any packet size.
-  std::vector<double> slopes;
+  const size_t b = std::max<size_t>(2, std::min(std::max<size_t>(2, block), std::max<size_t>(8, n / 16)));
+  const size_t n_blocks = n / b;
+  const size_t stride = std::max<size_t>(1, n_blocks / 2048);
+  // Least-squares slope of stamp against index per block: unbiased for packet-wise delivery of any packet size. A
+  // block with a stamp not later than its predecessor (stale, duplicate) is skipped.
   const double kbar = 0.5 * static_cast<double>(b - 1);
   double sxx = 0;
   for (size_t k = 0; k < b; ++k) sxx += (static_cast<double>(k) - kbar) * (static_cast<double>(k) - kbar);
-  for (size_t i = 0; i + b <= inc.size(); i += b) {
-    double sxy = 0;
-    for (size_t k = 0; k < b; ++k) sxy += (static_cast<double>(k) - kbar) * (inc[i + k] - inc[i]);
-    slopes.push_back(sxy / sxx);
+  std::vector<double> slopes;
+  for (size_t j = 0; j < n_blocks; j += stride) {
+    const size_t i = j * b;
+    const double t0 = at(i);
+    double sxy = 0, prev = -std::numeric_limits<double>::infinity();
+    bool ok = std::isfinite(t0);
+    for (size_t k = 0; k < b && ok; ++k) {
+      const double x = at(i + k);
+      ok = std::isfinite(x) && x > prev;
+      prev = x;
+      sxy += (static_cast<double>(k) - kbar) * (x - t0);
+    }
+    if (ok) slopes.push_back(sxy / sxx);
   }
-  if (slopes.empty()) slopes.push_back((inc.back() - inc.front()) / static_cast<double>(inc.size() - 1));
+  if (slopes.empty()) {
+    const double span = at(n - 1) - at(0);
+    return std::isfinite(span) && span > 0 ? span / static_cast<double>(n - 1) : 0.0;
+  }
   return median(std::move(slopes));
+}
+}  // namespace
+
+double estimatePeriod(const std::vector<double>& t, size_t block) {
+  return estimatePeriodImpl(t.size(), [&](size_t i) { return t[i]; }, block);
 }
 
 StampGrid::StampGrid(double period, double gap_factor, double lookahead_s)
@@ -327,9 +345,7 @@ SanitizedSeries sanitizeImpl(const std::vector<double>& t, const std::vector<con
   // Nominal period: given, or the median block slope of the stamps (robust to jitter and bursts).
   double period = options.nominal_rate_hz > 0 ? 1.0 / options.nominal_rate_hz : 0.0;
   if (period <= 0) {
-    std::vector<double> ts(idx.size());
-    for (size_t k = 0; k < idx.size(); ++k) ts[k] = t[idx[k]];
-    period = estimatePeriod(ts);
+    period = estimatePeriodImpl(idx.size(), [&](size_t k) { return t[idx[k]]; }, 64);
   }
   // Pass 2: place the stamps on the sampler's grid (StampGrid); split where grid slots have no sample.
   out.t.reserve(idx.size());
