@@ -20,9 +20,10 @@ namespace gyro_allan {
 ///     from the median of the half_window samples after it (a bias step's edge samples are close to one side).
 /// Every sample k of a spike run is replaced by the median of those 2 half_window neighbours (the run excluded: the
 /// local level) plus, with restore_noise, a deterministic pseudo-random Gaussian draw (seeded by k's index in the
-/// segment) of the short-term noise sigma, robust_sigma / sqrt(1 + pi / (4 half_window)): the median alone has almost
-/// no noise and would bias the Allan variance at short tau low by ~0.9 x the spike fraction (docs/spikes.md). The
-/// grid stays regular; the angle keeps the local level.
+/// segment) of the local noise sigma (MAD of those neighbours about their median / 0.6745): the median alone has
+/// almost no noise and would bias the Allan variance at short tau low by ~0.9 x the spike fraction (docs/spikes.md).
+/// The grid stays regular; the angle keeps the local level. Both level and noise are local, so batch and streaming
+/// replace a spike they both find with the same value.
 struct SpikeOptions {
   double z = 10.0;           ///< threshold, robust sigmas (> 0)
   int half_window = 8;       ///< neighbours on each side (1..1000)

@@ -80,11 +80,13 @@ struct Rule {
   int max_run = 3;
   int sat = 5;
   double thr = 0;
+  bool restore_noise = true;
 };
 
 /// Decision on a maximal run [s, e) of candidates (e - s <= max_run): spike or not, and the replacement value.
 /// Needs the samples [s - max(h, sat), e + max(h, sat)) (cut at the segment ends).
-bool classifyRun(const View& v, int64_t s, int64_t e, const Rule& r, std::vector<double>& w, double* replacement) {
+bool classifyRun(const View& v, int64_t s, int64_t e, const Rule& r, std::vector<double>& w, double* replacement,
+                 double* noise) {
   // Saturation: a sample in a run of >= sat identical values.
   for (int64_t k = s; k < e; ++k) {
     const double y = v.at(k);
@@ -109,6 +111,14 @@ bool classifyRun(const View& v, int64_t s, int64_t e, const Rule& r, std::vector
   for (int64_t j = l0; j < s; ++j) w.push_back(v.at(j));
   for (int64_t j = e; j < r1; ++j) w.push_back(v.at(j));
   *replacement = medianOf(w);
+  // Local noise sigma: MAD of the same neighbours about their median / 0.6745 (local, so batch and streaming agree
+  // whatever sigma each estimated).
+  if (r.restore_noise) {
+    for (double& y : w) y = std::fabs(y - *replacement);
+    *noise = medianOf(w) / 0.6745;
+  } else {
+    *noise = 0;
+  }
   return true;
 }
 
@@ -187,11 +197,6 @@ double gaussOfIndex(int64_t k) {
   const double u1 = (static_cast<double>(a >> 11) + 0.5) * (1.0 / 9007199254740992.0);
   const double u2 = static_cast<double>(b >> 11) * (1.0 / 9007199254740992.0);
   return std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * M_PI * u2);
-}
-
-/// Short-term noise sigma from the robust sigma of d (d carries the variance of the 2h-sample median too).
-double noiseSigma(const SpikeOptions& o, double robust_sigma) {
-  return o.restore_noise ? robust_sigma / std::sqrt(1.0 + M_PI / (4.0 * o.half_window)) : 0.0;
 }
 
 }  // namespace
@@ -274,6 +279,7 @@ SpikeReport detectSpikes(const std::vector<double>& x, const SpikeOptions& o, st
   rule.max_run = o.max_run;
   rule.sat = o.saturation_run;
   rule.thr = r.threshold;
+  rule.restore_noise = o.restore_noise;
   // Candidates: blocks of B >= h samples whose three-block range is at most thr hold none (each window lies within
   // them); the rest are tested sample by sample (isCandidate repeats the range test per window: same answer).
   const int64_t B = std::max<int64_t>(16, h);
@@ -303,11 +309,11 @@ SpikeReport detectSpikes(const std::vector<double>& x, const SpikeOptions& o, st
     size_t b = a + 1;
     while (b < cand.size() && cand[b] == cand[b - 1] + 1) ++b;
     const int64_t s = cand[a], e = cand[b - 1] + 1;
-    double rep = 0;
-    if (e - s <= o.max_run && classifyRun(v, s, e, rule, w, &rep)) {
+    double rep = 0, noise = 0;
+    if (e - s <= o.max_run && classifyRun(v, s, e, rule, w, &rep, &noise)) {
       ++r.runs;
       for (int64_t k = s; k < e; ++k) noteSpike(&r, k, x[static_cast<size_t>(k)] - rep, o.max_listed);
-      if (runs) runs->push_back({s, static_cast<int>(e - s), rep, noiseSigma(o, r.robust_sigma)});
+      if (runs) runs->push_back({s, static_cast<int>(e - s), rep, noise});
     } else {
       r.rejected += e - s;
     }
@@ -411,8 +417,8 @@ bool SpikeFilter::emitOne(bool ended, double* out) {
         rule.max_run = o_.max_run;
         rule.sat = o_.saturation_run;
         rule.thr = o_.z * scale_;
-        run_spike_ = e - i <= o_.max_run && classifyRun(v, i, e, rule, scratch_, &run_value_);
-        run_noise_ = noiseSigma(o_, scale_);
+        rule.restore_noise = o_.restore_noise;
+        run_spike_ = e - i <= o_.max_run && classifyRun(v, i, e, rule, scratch_, &run_value_, &run_noise_);
         if (run_spike_) ++seg_.runs;
       }
     }
