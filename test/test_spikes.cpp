@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "gyro_allan/analysis.hpp"
+#include "gyro_allan/io/report.hpp"
 #include "gyro_allan/model_check.hpp"
 #include "gyro_allan/simulate.hpp"
 #include "gyro_allan/spikes.hpp"
@@ -309,12 +310,33 @@ TEST(Spikes, AxisAnalysisReportsSpikesAndTheWithSpikesFit) {
   bool noted = false;
   for (const auto& s : a.notes) noted = noted || s.find("spikes in") != std::string::npos;
   EXPECT_TRUE(noted);
+  // report.yaml and the printed summary.
+  const YAML::Node rep = buildReport(ReportMeta{}, {a});
+  const YAML::Node sp = rep["axes"]["x"]["spikes"];
+  ASSERT_TRUE(sp.IsMap());
+  EXPECT_EQ(sp["count"].as<int64_t>(), a.spikes.count);
+  EXPECT_TRUE(sp["removed"].as<bool>());
+  EXPECT_NEAR(sp["threshold_rad_s"].as<double>(), a.spikes.threshold, 1e-9 * a.spikes.threshold);
+  EXPECT_NEAR(sp["robust_sigma_rad_s"].as<double>(), a.spikes.robust_sigma, 1e-9 * a.spikes.robust_sigma);
+  EXPECT_GT(sp["excess_kurtosis_before"].as<double>(), sp["excess_kurtosis_after"].as<double>());
+  const YAML::Node nw = sp["coefficients_with_spikes"]["angle_random_walk"];
+  EXPECT_NEAR(nw["value"].as<double>(), n_with, 1e-9 * n_with);
+  EXPECT_EQ(nw["unit"].as<std::string>(), "rad/sqrt(s)");
+  EXPECT_NEAR(nw["conventional"]["value"].as<double>(), n_with * conventionalFactor(kAngleRandomWalk), 1e-6);
+  EXPECT_EQ(nw["conventional"]["unit"].as<std::string>(), "deg/sqrt(h)");
+  EXPECT_NEAR(sp["angle_random_walk_ratio"].as<double>(), n_with / n_without, 1e-6);
+  const std::string table = summaryTable({a});
+  EXPECT_NE(table.find("axis x: " + std::to_string(a.spikes.count) + " spikes removed (> 10 sigma"), std::string::npos)
+      << table;
+  EXPECT_NE(table.find("with them N would be"), std::string::npos) << table;
   // remove_spikes = false: nothing examined, the spikes stay in (N inflated).
   opt.remove_spikes = false;
   const AxisAnalysis b = analyzeAxis("x", segs, 1 / fs, opt);
   EXPECT_FALSE(b.spikes_checked);
   EXPECT_FALSE(b.has_with_spikes);
   EXPECT_NEAR(b.fit.terms[kAngleRandomWalk].value / n_with, 1.0, 1e-9);
+  EXPECT_FALSE(buildReport(ReportMeta{}, {b})["axes"]["x"]["spikes"].IsDefined());
+  EXPECT_EQ(summaryTable({b}).find("spikes removed"), std::string::npos);
   // Angle input: not examined.
   opt.remove_spikes = true;
   opt.input = InputKind::Angle;

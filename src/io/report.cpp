@@ -131,12 +131,12 @@ YAML::Node spikesNode(const AxisAnalysis& a, double (*factor)(int), const char* 
 }
 
 /// The summary line of one axis with spikes, or "".
-std::string spikesLine(const AxisAnalysis& a, const char* label, double factor, const char* unit) {
+std::string spikesLine(const AxisAnalysis& a, const char* label, double factor, const char* unit, const char* rate_unit) {
   if (!a.spikes_checked || a.spikes.count == 0) return "";
   const SpikeReport& r = a.spikes;
   char buf[320];
-  int len = std::snprintf(buf, sizeof buf, "axis %s: %lld spikes removed (> %.3g sigma = %.3g from the local median)",
-                          a.axis.c_str(), static_cast<long long>(r.count), r.z, r.threshold);
+  int len = std::snprintf(buf, sizeof buf, "axis %s: %lld spikes removed (> %.3g sigma = %.3g %s from the local median)",
+                          a.axis.c_str(), static_cast<long long>(r.count), r.z, r.threshold, rate_unit);
   if (a.has_with_spikes) {
     const Coefficient &w = a.coefficients_with_spikes[kAngleRandomWalk], &o = a.fit.terms[kAngleRandomWalk];
     if (w.supported && o.supported && o.value > 0)
@@ -347,7 +347,7 @@ std::string summaryTable(const std::vector<AxisAnalysis>& axes) {
   o << "(value +- 1 sigma; 0 (<b): not supported by the data, b = 1-sigma upper bound)\n";
   // Spikes: how many were removed and what N the plain joint fit gives with them left in (x: ratio to the joint fit
   // without them).
-  for (const auto& a : axes) o << spikesLine(a, "N", conventionalFactor(kAngleRandomWalk), conventionalUnit(kAngleRandomWalk));
+  for (const auto& a : axes) o << spikesLine(a, "N", conventionalFactor(kAngleRandomWalk), conventionalUnit(kAngleRandomWalk), "rad/s");
   // Model check: what the residual showed and what was added.
   bool any = false;
   for (const auto& a : axes) any = any || a.has_check;
@@ -424,7 +424,8 @@ std::string accelSummaryTable(const std::vector<AxisAnalysis>& axes) {
     o << buf << "\n";
   }
   for (const auto& a : axes)
-    o << spikesLine(a, "VRW", accelConventionalFactor(kAngleRandomWalk), accelConventionalUnit(kAngleRandomWalk));
+    o << spikesLine(a, "VRW", accelConventionalFactor(kAngleRandomWalk), accelConventionalUnit(kAngleRandomWalk),
+                    "m/s^2");
   return o.str();
 }
 
