@@ -73,8 +73,10 @@ double excessKurtosis(const std::vector<double>& x) {
 
 TEST(Spikes, InjectedSpikesAreFoundAndNComesBack) {
   // Two spike populations on a 1 h, 200 Hz static MEMS record (720000 samples):
-  //  A: the Xsens-like case, 0.5 % of samples at 25-40 sigma: excess kurtosis ~100, ARW x2.5;
-  //  B: rare big ones, 1e-4 of samples at 30-1000 sigma (log-uniform): kurtosis in the thousands, ARW x1.5.
+  //  A: the Xsens-like case, 0.5 % of samples at 25-40 sigma: excess kurtosis ~150, ARW x2.5;
+  //  B: rare big ones, 1e-4 of samples at 30-1000 sigma (log-uniform): kurtosis ~3e4, ARW x4.
+  // (The record, kurtosis 116 with ARW x2.8, fits A: rare spikes of hundreds of sigma would give a kurtosis
+  // in the tens of thousands for that ARW inflation.)
   // Every spike is >= 25 sigma (threshold 10): all must be found except where two fall within 3 samples of each
   // other in a run the rule rejects (none on these seeds): count == injected +- 0.5 %.
   const double fs = 200, tau0 = 1 / fs;
@@ -87,7 +89,7 @@ TEST(Spikes, InjectedSpikesAreFoundAndNComesBack) {
     double lo, hi;
     double min_kurtosis, min_inflation;
   };
-  for (const Case& c : {Case{"A", 3600, 25, 40, 60, 2.0}, Case{"B", 72, 30, 1000, 1000, 1.3}}) {
+  for (const Case& c : {Case{"A", 3600, 25, 40, 100, 2.0}, Case{"B", 72, 30, 1000, 1000, 2.0}}) {
     SCOPED_TRACE(c.name);
     const std::vector<double> clean = simulateAxis(truth, fs, n, 11);
     std::vector<double> x = clean;
@@ -105,14 +107,15 @@ TEST(Spikes, InjectedSpikesAreFoundAndNComesBack) {
     ASSERT_FALSE(r.first_indices.empty());
     EXPECT_EQ(r.first_indices.front(), at.front());
     EXPECT_GE(std::fabs(r.largest_excursion), c.lo * sigma);
-    // N after removal: the clean record's own estimate to 0.5 % (the replaced samples are 0.5 % at most), and the
-    // truth within 3 sigma of N's statistical spread (the fit's 1-sigma, which tracks the seed-to-seed spread of N
-    // on such records: docs/spikes.md).
+    // N after removal: the clean record's own estimate to 0.2 % (measured <= 0.05 % over 20 seeds), and the truth
+    // within 3 x N's statistical spread: the seed-to-seed spread of N on this record is 0.10 % (spike_study, seeds
+    // 2001..2020; the fit's own 1-sigma, 0.06 %, is smaller), so 3 x max(0.10 % N, fit sigma).
     const FitResult after = jointFit(x, tau0), ref = jointFit(clean, tau0);
     const Coefficient& N = after.terms[kAngleRandomWalk];
     ASSERT_TRUE(N.supported);
-    EXPECT_NEAR(N.value / ref.terms[kAngleRandomWalk].value, 1.0, 0.005);
-    EXPECT_LE(std::fabs(N.value - truth.angle_random_walk), 3 * N.sigma) << N.value << " +- " << N.sigma;
+    EXPECT_NEAR(N.value / ref.terms[kAngleRandomWalk].value, 1.0, 0.002);
+    const double spread = std::max(0.001 * truth.angle_random_walk, N.sigma);
+    EXPECT_LE(std::fabs(N.value - truth.angle_random_walk), 3 * spread) << N.value << " +- " << N.sigma;
     // With the spikes, N is clearly inflated.
     EXPECT_GT(with.terms[kAngleRandomWalk].value / N.value, c.min_inflation);
   }
