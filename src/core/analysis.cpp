@@ -158,9 +158,10 @@ void AxisStages::removeSegmentSpikes() {
   char buf[400];
   std::snprintf(buf, sizeof buf,
                 "%lld spikes in %lld runs (samples more than %.3g robust sigmas = %.4g from their local median, runs of "
-                "<= %d) replaced by the local median plus noise before any deviation; excess kurtosis %.3g -> %.3g",
+                "<= %d) replaced by the local median%s before any deviation; excess kurtosis %.3g -> %.3g",
                 static_cast<long long>(r.count), static_cast<long long>(r.runs), options.spikes.z, r.threshold,
-                options.spikes.max_run, r.excess_kurtosis_before, r.excess_kurtosis_after);
+                options.spikes.max_run, options.spikes.restore_noise ? " plus a noise draw" : "",
+                r.excess_kurtosis_before, r.excess_kurtosis_after);
   a.notes.push_back(buf);  // the with-spikes comparison follows once `fit` exists (prepare)
 }
 

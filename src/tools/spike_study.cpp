@@ -181,7 +181,7 @@ int main(int argc, char** argv) {
         best = std::min(best, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
         if (r == 0 && pass == 1) std::printf("(%lld spikes) ", static_cast<long long>(rep.count));
       }
-      std::printf("detectSpikes on 1.44 M samples, %s: %.1f ms\n", pass ? "0.5 %% spikes" : "clean", 1e3 * best);
+      std::printf("detectSpikes on 1.44 M samples, %s: %.1f ms\n", pass ? "0.5 % spikes" : "clean", 1e3 * best);
       if (pass == 0)
         for (size_t i = 100; i < x.size(); i += 200) x[i] += 30 * m.angle_random_walk * std::sqrt(400.0);
     }
