@@ -8,6 +8,7 @@
 #include "gyro_allan/allan.hpp"
 #include "gyro_allan/model_check.hpp"
 #include "gyro_allan/noise_model.hpp"
+#include "gyro_allan/spikes.hpp"
 #include "gyro_allan/wavelet_split.hpp"
 
 namespace gyro_allan {
@@ -24,6 +25,11 @@ struct AnalysisOptions {
   WaveletSplitOptions split;
   bool model_check = true;                          ///< run the closed loop (residual -> effect -> refit)
   ModelCheckOptions check;
+  /// Rate input: isolated spikes (spikes.hpp) are replaced in every gap-free segment before any deviation is
+  /// computed; when some were found, the plain joint fit of the untouched samples is kept alongside
+  /// (AxisAnalysis::coefficients_with_spikes). Ignored for angle input.
+  bool remove_spikes = true;
+  SpikeOptions spikes;                              ///< the rule's settings (validated in prepare)
   /// Run the wavelet split on a second thread while the model check runs (they only read the samples); the result
   /// is the same either way.
   bool concurrent_stages = false;
@@ -51,6 +57,15 @@ struct AxisAnalysis {
   FitError final_error;             ///< rms_log10 / chi2_dof of the model behind `coefficients` (effects included)
   std::vector<double> final_model_var;  ///< that model's AVAR at oadev's points
   std::vector<std::string> notes;   ///< human notes (segment used, stages skipped and why)
+  /// Spike removal (rate input with remove_spikes): what was found, summed over segments (indices into the
+  /// concatenated segments). Every deviation and coefficient above is of the samples with the spikes replaced.
+  bool spikes_checked = false;
+  SpikeReport spikes;
+  /// When spikes were found (spikes.count > 0): the plain joint fit (oadev + fitWithModelEdf, no wavelet split or
+  /// model check) of the untouched samples, for comparison with `fit`.
+  bool has_with_spikes = false;
+  std::array<Coefficient, kNumTerms> coefficients_with_spikes;
+  FitError error_with_spikes;       ///< rms_log10 / chi2_dof of that fit
 };
 
 /// Validates options (throws std::invalid_argument naming the problem) and analyses one axis.
@@ -76,6 +91,7 @@ class AxisStages {
   const AxisAnalysis& partial() const { return a_; }
 
  private:
+  void removeSegmentSpikes();
   std::string axis_;
   std::vector<std::vector<double>> segments_;
   double tau0_;

@@ -2,6 +2,7 @@
 #include "gyro_allan/analysis.hpp"
 
 #include <cmath>
+#include <cstdio>
 #include <exception>
 #include <stdexcept>
 #include <thread>
@@ -55,6 +56,8 @@ void AxisStages::prepare() {
     throw std::invalid_argument("confidence must be in (0, 1)");
   for (const auto& d : options.deviations)
     if (!isDeviationName(d)) throw std::invalid_argument("unknown deviation '" + d + "'");
+  const bool spikes_on = options.remove_spikes && options.input == InputKind::Rate;
+  if (spikes_on) validateSpikeOptions(options.spikes);
   a.axis = axis;
   a.rate_hz = 1.0 / tau0;
   long double sum = 0;
@@ -70,6 +73,7 @@ void AxisStages::prepare() {
   if (a.samples < 3) throw std::invalid_argument("axis " + axis + ": too few samples (" + std::to_string(a.samples) + ")");
   a.mean = static_cast<double>(sum / a.samples);
   a.duration_s = static_cast<double>(a.samples) * tau0;
+  if (spikes_on) removeSegmentSpikes();
   a.oadev = computeDeviation("oadev", segments, options.input, tau0, options.deviation);
   raw_oadev_ = a.oadev;  // as computed, for the wavelet split's own fit error
   enforceRedderWithTau(&a.oadev, options.deviation.confidence);
@@ -88,6 +92,17 @@ void AxisStages::prepare() {
     DeviationCurve weighted = a.oadev;
     a.fit = fitWithModelEdf(&weighted, options.fit, options.deviation.confidence);
   }
+  if (a.has_with_spikes && a.fit.ok) {
+    const Coefficient &with = a.coefficients_with_spikes[kAngleRandomWalk], &without = a.fit.terms[kAngleRandomWalk];
+    char buf[200];
+    if (with.supported && without.supported && without.value > 0)
+      std::snprintf(buf, sizeof buf, "with the spikes, the joint fit's N would be %.4g (x%.3g of %.4g without them)",
+                    with.value, with.value / without.value, without.value);
+    else
+      std::snprintf(buf, sizeof buf, "with the spikes, the joint fit's N would be %s",
+                    with.supported ? std::to_string(with.value).c_str() : "unsupported");
+    a.notes.push_back(buf);
+  }
 
 
   // Stages that need contiguous raw samples run on the longest gap-free segment.
@@ -99,6 +114,55 @@ void AxisStages::prepare() {
   if (options.input != InputKind::Rate && (options.wavelet_split || options.model_check))
     a.notes.push_back("wavelet split and model check need rate samples: skipped for angle input");
   prepared_ = true;
+}
+
+void AxisStages::removeSegmentSpikes() {
+  AxisAnalysis& a = a_;
+  const AnalysisOptions& options = options_;
+  // Detection first (samples untouched: the with-spikes fit needs them, and no second copy is made), then the fit of
+  // the untouched samples when there is anything to remove, then the replacement in place.
+  std::vector<std::vector<SpikeRun>> runs(segments_.size());
+  std::vector<SpikeReport> reports(segments_.size());
+  int64_t found = 0;
+  for (size_t i = 0; i < segments_.size(); ++i) {
+    if (segments_[i].empty()) continue;
+    reports[i] = detectSpikes(segments_[i], options.spikes, &runs[i]);
+    found += reports[i].count;
+  }
+  if (found > 0) {
+    DeviationCurve c = computeDeviation("oadev", segments_, InputKind::Rate, tau0_, options.deviation);
+    enforceRedderWithTau(&c, options.deviation.confidence);
+    if (!c.points.empty()) {
+      const FitResult f = fitWithModelEdf(&c, options.fit, options.deviation.confidence);
+      if (f.ok) {
+        a.has_with_spikes = true;
+        a.coefficients_with_spikes = f.terms;
+        a.error_with_spikes = {f.rms_log10, f.chi2_dof, f.n_rms};
+      }
+    }
+    long double sum = 0;
+    for (size_t i = 0; i < segments_.size(); ++i) {
+      if (!runs[i].empty()) applySpikeRuns(runs[i], &segments_[i], &reports[i]);
+      for (double v : segments_[i]) sum += v;
+    }
+    a.mean = static_cast<double>(sum / a.samples);
+  }
+  int64_t offset = 0;
+  for (size_t i = 0; i < segments_.size(); ++i) {
+    if (!segments_[i].empty()) a.spikes.merge(reports[i], offset, options.spikes.max_listed);
+    offset += static_cast<int64_t>(segments_[i].size());
+  }
+  a.spikes_checked = true;
+  if (found == 0) return;
+  const SpikeReport& r = a.spikes;
+  char buf[400];
+  std::snprintf(buf, sizeof buf,
+                "%lld spikes in %lld runs (samples more than %.3g robust sigmas = %.4g from their local median, runs of "
+                "<= %d) replaced by the local median%s before any deviation; excess kurtosis %.3g -> %.3g",
+                static_cast<long long>(r.count), static_cast<long long>(r.runs), options.spikes.z, r.threshold,
+                options.spikes.max_run, options.spikes.restore_noise ? " plus a noise draw" : "",
+                r.excess_kurtosis_before, r.excess_kurtosis_after);
+  a.notes.push_back(buf);  // the with-spikes comparison follows once `fit` exists (prepare)
 }
 
 void AxisStages::split() {

@@ -94,6 +94,58 @@ YAML::Node checkNode(const ModelCheck& c) {
   return n;
 }
 
+/// report.yaml `spikes:` of one axis; the with-spikes coefficients in SI and in conventional units (factor/unit of
+/// each term from the callbacks: gyro or accelerometer).
+YAML::Node spikesNode(const AxisAnalysis& a, double (*factor)(int), const char* (*conv_unit)(int),
+                      const char* (*si_unit)(int), const std::string& suffix) {
+  const SpikeReport& r = a.spikes;
+  YAML::Node n;
+  n["count"] = r.count;
+  n["runs"] = r.runs;
+  n["rejected"] = r.rejected;
+  n["removed"] = r.removed;
+  n["z"] = num(r.z);
+  n["threshold_" + suffix] = num(r.threshold);
+  n["robust_sigma_" + suffix] = num(r.robust_sigma);
+  n["largest_excursion_" + suffix] = num(r.largest_excursion);
+  n["excess_kurtosis_before"] = num(r.excess_kurtosis_before);
+  n["excess_kurtosis_after"] = num(r.excess_kurtosis_after);
+  n["first_indices"] = YAML::Node(YAML::NodeType::Sequence);
+  for (int64_t i : r.first_indices) n["first_indices"].push_back(i);
+  if (a.has_with_spikes) {
+    YAML::Node c;
+    for (int t = 0; t < kNumTerms; ++t) {
+      const Coefficient& k = a.coefficients_with_spikes[static_cast<size_t>(t)];
+      YAML::Node tn = coefficientNode(k, si_unit(t));
+      tn["conventional"]["value"] = num(k.value * factor(t));
+      tn["conventional"]["sigma"] = num(k.sigma * factor(t));
+      tn["conventional"]["unit"] = conv_unit(t);
+      c[noiseTermKey(t)] = tn;
+    }
+    n["coefficients_with_spikes"] = c;
+    n["fit_with_spikes"] = errorNode(a.error_with_spikes.rms_log10, a.error_with_spikes.chi2_dof);
+    const Coefficient &w = a.coefficients_with_spikes[kAngleRandomWalk], &o = a.fit.terms[kAngleRandomWalk];
+    if (w.supported && o.supported && o.value > 0) n["angle_random_walk_ratio"] = num(w.value / o.value);
+  }
+  return n;
+}
+
+/// The summary line of one axis with spikes, or "".
+std::string spikesLine(const AxisAnalysis& a, const char* label, double factor, const char* unit, const char* rate_unit) {
+  if (!a.spikes_checked || a.spikes.count == 0) return "";
+  const SpikeReport& r = a.spikes;
+  char buf[320];
+  int len = std::snprintf(buf, sizeof buf, "axis %s: %lld spikes removed (> %.3g sigma = %.3g %s from the local median)",
+                          a.axis.c_str(), static_cast<long long>(r.count), r.z, r.threshold, rate_unit);
+  if (a.has_with_spikes) {
+    const Coefficient &w = a.coefficients_with_spikes[kAngleRandomWalk], &o = a.fit.terms[kAngleRandomWalk];
+    if (w.supported && o.supported && o.value > 0)
+      std::snprintf(buf + len, sizeof buf - static_cast<size_t>(len), "; with them %s would be %.3g %s (x%.2g)", label,
+                    w.value * factor, unit, w.value / o.value);
+  }
+  return std::string(buf) + "\n";
+}
+
 YAML::Node fitNode(const FitResult& fit) {
   YAML::Node n;
   n["ok"] = fit.ok;
@@ -223,6 +275,8 @@ YAML::Node buildReport(const ReportMeta& meta, const std::vector<AxisAnalysis>& 
     n["methods"]["joint_fit"] = jf;
     if (a.has_split) n["methods"]["wavelet_split"] = splitNode(a.split);
     if (a.has_check) n["model_check"] = checkNode(a.check);
+    if (a.spikes_checked)
+      n["spikes"] = spikesNode(a, conventionalFactor, conventionalUnit, noiseTermUnit, "rad_s");
     if (!a.notes.empty())
       for (const auto& note : a.notes) n["notes"].push_back(note);
     ax[a.axis] = n;
@@ -299,6 +353,9 @@ std::string summaryTable(const std::vector<AxisAnalysis>& axes) {
     o << buf << "\n";
   }
   o << "(value +- 1 sigma; 0 (<b): not supported by the data, b = 1-sigma upper bound)\n";
+  // Spikes: how many were removed and what N the plain joint fit gives with them left in (x: ratio to the joint fit
+  // without them).
+  for (const auto& a : axes) o << spikesLine(a, "N", conventionalFactor(kAngleRandomWalk), conventionalUnit(kAngleRandomWalk), "rad/s");
   // Model check: what the residual showed and what was added.
   bool any = false;
   for (const auto& a : axes) any = any || a.has_check;
@@ -353,6 +410,7 @@ YAML::Node accelerometerNode(const std::vector<AxisAnalysis>& axes, const std::v
     }
     n["coefficients"] = c;
     n["fit"] = errorNode(a.final_error.rms_log10, a.final_error.chi2_dof);
+    if (a.spikes_checked) n["spikes"] = spikesNode(a, accelConventionalFactor, accelConventionalUnit, accelTermUnit, "m_s2");
     r["axes"][key] = n;
   }
   return r;
@@ -373,6 +431,9 @@ std::string accelSummaryTable(const std::vector<AxisAnalysis>& axes) {
     std::snprintf(buf, sizeof buf, "%-11.4f", a.final_error.rms_log10);
     o << buf << "\n";
   }
+  for (const auto& a : axes)
+    o << spikesLine(a, "VRW", accelConventionalFactor(kAngleRandomWalk), accelConventionalUnit(kAngleRandomWalk),
+                    "m/s^2");
   return o.str();
 }
 
