@@ -49,7 +49,7 @@ struct SpikeReport {
   double robust_sigma = 0;          ///< input units (rad/s); of the longest segment when merged
   int64_t longest_segment = 0;      ///< samples of that segment
   double threshold = 0;             ///< z * robust_sigma
-  double largest_excursion = 0;     ///< signed spike value minus its replacement with the largest magnitude
+  double largest_excursion = 0;     ///< signed spike value minus its local level (run median), largest magnitude
   double excess_kurtosis_before = 0;  ///< of the samples about their segment's mean, spikes included
   double excess_kurtosis_after = 0;   ///< the same after replacement (== before when nothing was replaced)
   double std_before = 0, std_after = 0;  ///< standard deviation about the segment means, before / after
