@@ -250,9 +250,18 @@ TEST_F(BadInput, ImpulsiveShocksAreCounted) {
   for (int k = 0; k < 12; ++k) m[500 + 900 * k].z += (k % 2 ? -1 : 1) * (20 + 5 * k) * deg;  // 20..75 deg/s
   const Analysed a = analyse("shocks", m);
   ASSERT_EQ(a.run.code, 0) << a.run.err;
-  expectWarning(a, "axis z: 12 impulsive samples");
+  // Removed as spikes (spikes.hpp) and reported with the with-spikes N alongside; no other axis is touched.
+  expectWarning(a, "axis z: 12 spikes removed");
+  expectWarning(a, "with them N would be");
+  EXPECT_EQ(a.report["axes"]["z"]["spikes"]["count"].as<int>(), 12);
+  EXPECT_EQ(a.report["axes"]["x"]["spikes"]["count"].as<int>(), 0);
   for (const auto& w : a.report["warnings"]) EXPECT_EQ(w.as<std::string>().find("axis x"), std::string::npos);
   expectNothingLost(a.report, static_cast<int64_t>(m.size()));
+  // --keep-spikes: the old behaviour, a warning only.
+  const Analysed k = analyse("shocks_kept", m, "--keep-spikes");
+  ASSERT_EQ(k.run.code, 0) << k.run.err;
+  expectWarning(k, "axis z: 12 impulsive samples");
+  EXPECT_FALSE(k.report["axes"]["z"]["spikes"]);
 }
 
 TEST_F(BadInput, SaturatedRunIsFlagged) {

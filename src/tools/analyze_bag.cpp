@@ -78,6 +78,9 @@ Analysis
   --no-model-check       skip the model check (residual -> missing effect -> refit)
   --confidence C         two-sided confidence of the intervals (default 0.683)
   --gap-factor F         an interval longer than F nominal periods is a gap (default 1.5)
+  --keep-spikes          do not remove isolated spikes (default: samples more than 10 robust sigmas from the median
+                         of their 16 neighbours, in runs of <= 3, are replaced before the analysis and reported with
+                         the with-spikes figure alongside; docs/spikes.md)
   --no-accel             skip the accelerometer (bags: linear_acceleration gets the same joint fit, mean removed)
 
 Output
@@ -107,7 +110,7 @@ struct Args {
   bool accel = true, plot = true;
   double rate = 0, confidence = 0.683, gap_factor = 1.5, start = 0, duration = 0;
   int jobs = 0;  // 0 = one per core
-  bool bag_time = false, quiet = false, wavelet_split = true, model_check = true;
+  bool bag_time = false, quiet = false, wavelet_split = true, model_check = true, keep_spikes = false;
 };
 
 struct UsageError : std::runtime_error {
@@ -156,6 +159,7 @@ Args parseArgs(int argc, char** argv) {
     else if (s == "--batch") a.batch = value();
     else if (s == "--kalibr-axis") a.kalibr_axis = value();
     else if (s == "--no-accel") a.accel = false;
+    else if (s == "--keep-spikes") a.keep_spikes = true;
     else if (s == "--no-plot") a.plot = false;
     else if (s == "--jobs" || s == "-j") {
       const double j = parseDouble(s, value());
@@ -242,6 +246,22 @@ void runPlot(const std::string& dir, bool quiet) {
   const int status = pclose(f);
   if (status == -1 || !WIFEXITED(status) || WEXITSTATUS(status) != 0)
     warn(last.empty() ? "plot_allan.py failed" : last);
+}
+
+/// One line for the user about the spikes removed from one gyro axis, with the with-spikes N alongside.
+std::string spikeWarning(const AxisAnalysis& a) {
+  char buf[400];
+  int len = std::snprintf(buf, sizeof buf,
+                          "axis %s: %lld spikes removed (samples more than %.3g robust sigmas = %.3g rad/s from their "
+                          "neighbours' median; excess kurtosis %.3g -> %.3g)",
+                          a.axis.c_str(), static_cast<long long>(a.spikes.count), a.spikes.z, a.spikes.threshold,
+                          a.spikes.excess_kurtosis_before, a.spikes.excess_kurtosis_after);
+  const Coefficient &w = a.coefficients_with_spikes[kAngleRandomWalk], &o = a.fit.terms[kAngleRandomWalk];
+  if (a.has_with_spikes && w.supported && o.supported && o.value > 0 && len > 0 && len < static_cast<int>(sizeof buf))
+    std::snprintf(buf + len, sizeof buf - static_cast<size_t>(len),
+                  "; with them N would be %.4g deg/sqrt(h) (x%.3g); --keep-spikes keeps them",
+                  w.value * conventionalFactor(kAngleRandomWalk), w.value / o.value);
+  return buf;
 }
 
 /// Mean of all samples over segments, then removed (accelerometer: gravity; Allan variance ignores constants, the
@@ -371,6 +391,7 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
   opt.method = args.method;
   opt.wavelet_split = args.wavelet_split;
   opt.model_check = args.model_check;
+  opt.remove_spikes = !args.keep_spikes;
 
   ReportMeta meta;
   meta.tau_grid = tauGridName(opt.deviation.grid);
@@ -486,13 +507,18 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
         segs = ss.takeSegmentValues(static_cast<int>(a));
       }
       if (opt.input == InputKind::Rate) {
+        // Saturation warnings here; isolated spikes are removed and reported by the analysis itself (spikes.hpp)
+        // unless --keep-spikes, when they are only warned about as before.
+        ValueAnomalies va;
         if (segs.size() == 1) {
-          axis_warnings[a] = detectValueAnomalies(segs[0]).warnings("axis " + names[a]);
+          va = detectValueAnomalies(segs[0]);
         } else {
           std::vector<double> all;
           for (const auto& g : segs) all.insert(all.end(), g.begin(), g.end());
-          axis_warnings[a] = detectValueAnomalies(all).warnings("axis " + names[a]);
+          va = detectValueAnomalies(all);
         }
+        if (opt.remove_spikes) va.spikes = 0;
+        axis_warnings[a] = va.warnings("axis " + names[a]);
       }
       stages[a] = std::make_unique<AxisStages>(names[a], std::move(segs), tau0, opt,
                                                temperature_segments.empty() ? nullptr : &temperature_segments);
@@ -585,6 +611,8 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
     ss.report = keep;
   }
   for (const auto& w : axis_warnings) meta.warnings.insert(meta.warnings.end(), w.begin(), w.end());
+  for (const auto& r : results)
+    if (r.spikes_checked && r.spikes.count > 0) meta.warnings.push_back(spikeWarning(r));
   for (const auto& e : accel_errors)
     if (accel_error.empty() && !e.empty()) accel_error = e;
   if (!accel_error.empty()) {
