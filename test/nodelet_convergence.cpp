@@ -262,6 +262,19 @@ TEST(NodeletConvergence, ConvergesReactsAndRecovers) {
   // The dropped NaN sample is a break in the data, not a stamp problem.
   EXPECT_EQ(h.maxLevel("stamps"), OK) << h.message("stamps");
 
+  // B2. Isolated spikes (30 sigma) on x: removed by the same spike rule as analyze_bag, reported as a WARN of
+  // "input values", and N stays at the truth.
+  h.clearMax();
+  for (int k = 0; k < 5; ++k) {
+    h.publishNext(1.0, true);
+    h.publishUntil(0.1, [] { return false; });
+  }
+  EXPECT_TRUE(h.publishUntil(10.0, [&] { return h.maxLevel("input values") >= WARN; })) << "spikes not reported";
+  EXPECT_NE(h.message("input values").find("spikes removed"), std::string::npos) << h.message("input values");
+  EXPECT_TRUE(h.publishUntil(10.0, [&] { return h.level("input values") == OK; }))
+      << "input values did not recover: " << h.message("input values");
+  expectConverged(h.lastReport(), "after spikes");
+
   // C. A 100 ms gap in the stamps: "stamps" warns, the window is segmented, then recovery.
   h.clearMax();
   h.skip(100);

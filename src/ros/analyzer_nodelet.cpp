@@ -96,6 +96,11 @@ void AnalyzerNodelet::loadParams() {
     p_.method = "joint_fit";
   }
   pnh.param("model_check", p_.model_check, def.model_check);
+  getD("spike_z", &p_.spikes.z, def.spikes.z);
+  if (!(p_.spikes.z >= 0)) {
+    NODELET_ERROR("parameter ~spike_z = %g must be >= 0 (0: keep spikes); using %g", p_.spikes.z, def.spikes.z);
+    p_.spikes.z = def.spikes.z;
+  }
   getD("raw_max_s", &p_.raw_max_s, def.raw_max_s);
   if (!(p_.raw_max_s > 0)) {
     NODELET_ERROR("parameter ~raw_max_s = %g must be > 0 s; using %g s", p_.raw_max_s, def.raw_max_s);
@@ -293,6 +298,14 @@ void AnalyzerNodelet::initAccumulators(double tau0) {
   have_hop_ = false;
   // The sampler's grid at this period; samples still in the old grid's lookahead go through the new one.
   grid_.reset(new StampGrid(tau0, p_.gap_factor, p_.lookahead_s));
+  // Spike filters start afresh with the window (what they held back belonged to the old rate).
+  for (int a = 0; a < 3; ++a) {
+    spike_[a].reset(p_.spikes.z > 0 ? new SpikeFilter(p_.spikes) : nullptr);  // ~spike_z 0: no filter
+    spike_out_[a].clear();
+  }
+  spike_stamps_.clear();
+  spikes_seen_ = 0;
+  segment_pending_ = true;
   for (const auto& s : grid_values_) grid_->push(s.stamp.toSec());
   new_timeline_ = true;
   reinit_period_ = 0;
@@ -435,7 +448,6 @@ void AnalyzerNodelet::processSample(Source source, const ros::Time& stamp, const
       grid_->finish();
       drainGrid();
       new_timeline_ = true;
-      have_hop_ = false;  // the hop clock restarts with the new timeline (not at the glitch's stamp)
     }
     grid_values_.push_back({stamp, v, dropped_since_last_});
     dropped_since_last_ = false;
@@ -473,25 +485,63 @@ void AnalyzerNodelet::onDecision(const StampDecision& d) {
   const bool gap = d.missing > 0 || new_timeline_;
   new_timeline_ = false;
   if (checkRate(smp.stamp, d.index)) return;  // the caller restarts the accumulators at the new rate
+  if (source_ != Source::Imu || !spike_[0]) {  // angles, or ~spike_z 0: no spike filter
+    if (gap) segment_pending_ = true;
+    analyse(smp.stamp, smp.v);
+    return;
+  }
+  // Rates pass the spike filters (the same rule as analyze_bag), which hold back delay() samples; at a gap the
+  // segment's remaining samples go out first.
+  if (gap) {
+    flushSpikes();
+    segment_pending_ = true;
+  }
+  spike_stamps_.push_back(smp.stamp);
+  for (int a = 0; a < 3; ++a) spike_[a]->push(smp.v[a], &spike_out_[a]);
+  emitSpikeOutput();
+}
+
+void AnalyzerNodelet::flushSpikes() {
+  if (!spike_[0]) return;
+  for (int a = 0; a < 3; ++a) spike_[a]->flush(&spike_out_[a]);
+  emitSpikeOutput();
+}
+
+void AnalyzerNodelet::emitSpikeOutput() {
+  const size_t n = std::min({spike_out_[0].size(), spike_out_[1].size(), spike_out_[2].size()});
+  for (size_t i = 0; i < n && !spike_stamps_.empty(); ++i) {
+    const ros::Time stamp = spike_stamps_.front();
+    spike_stamps_.pop_front();
+    analyse(stamp, {{spike_out_[0][i], spike_out_[1][i], spike_out_[2][i]}});
+  }
+  for (auto& o : spike_out_) o.erase(o.begin(), o.begin() + static_cast<long>(n));
+  int64_t count = 0;
+  for (const auto& f : spike_) count += f->report().count;
+  const ros::Time now = ros::Time::now();
+  for (; spikes_seen_ < count; ++spikes_seen_) spikes_.add(now);
+}
+
+void AnalyzerNodelet::analyse(const ros::Time& stamp, const std::array<double, 3>& v) {
   const Source source = source_;
   const bool increments = source == Source::Angle && p_.angle_mode == "increment";
   const bool rate_like = source == Source::Imu || increments;
-  const bool new_seg = gap || seg_stamps_.empty() || allan_[0]->phasePoints() == 0;
-  if (gap)
+  const bool new_seg = segment_pending_ || seg_stamps_.empty() || allan_[0]->phasePoints() == 0;
+  if (segment_pending_)
     for (auto& a : allan_) a->newSegment();
+  segment_pending_ = false;
   for (int a = 0; a < 3; ++a) {
-    if (source == Source::Imu) allan_[a]->addRate(smp.v[a]);
-    else if (increments) allan_[a]->addIncrement(smp.v[a]);
-    else allan_[a]->addAngle(smp.v[a]);
+    if (source == Source::Imu) allan_[a]->addRate(v[a]);
+    else if (increments) allan_[a]->addIncrement(v[a]);
+    else allan_[a]->addAngle(v[a]);
   }
   // Segment bookkeeping for the window's start stamp.
-  if (new_seg) seg_stamps_.emplace_back(smp.stamp, 0);
+  if (new_seg) seg_stamps_.emplace_back(stamp, 0);
   seg_stamps_.back().second += (new_seg && rate_like) ? 2 : 1;
-  maybeHop(smp.stamp);
+  maybeHop(stamp);
 }
 
 void AnalyzerNodelet::maybeHop(const ros::Time& stamp) {
-  if (!have_hop_) {
+  if (!have_hop_ || stamp < last_hop_) {  // first sample, or the hop clock was set by a stamp glitch in the future
     have_hop_ = true;
     last_hop_ = stamp;
     return;
@@ -792,19 +842,24 @@ void AnalyzerNodelet::diagValues(diagnostic_updater::DiagnosticStatusWrapper& st
   std::lock_guard<std::mutex> lock(mutex_);
   const ros::Time now = ros::Time::now();
   const size_t nf = nonfinite_.recent(now, p_.recent_s), sat = saturated_.recent(now, p_.recent_s),
-               other = other_source_.recent(now, p_.recent_s);
+               other = other_source_.recent(now, p_.recent_s), spk = spikes_.recent(now, p_.recent_s);
   const double expected = tau0_ > 0 ? p_.recent_s / tau0_ : 0;
   if (nf + sat > 0 && expected > 0 && (nf + sat) >= p_.error_fraction * expected) {
     stat.summaryf(diagnostic_msgs::DiagnosticStatus::ERROR, "many NaN/Inf or saturated samples in the last %g s",
                   p_.recent_s);
   } else if (nf + sat + other > 0) {
     stat.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "dropped samples in the last %g s", p_.recent_s);
+  } else if (spk > 0) {
+    stat.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "%zu spikes removed in the last %g s", spk, p_.recent_s);
   } else {
     stat.summary(diagnostic_msgs::DiagnosticStatus::OK, "values clean");
   }
   stat.add("NaN/Inf dropped (recent)", nf);
   stat.add("saturated dropped (recent)", sat);
   stat.add("other source ignored (recent)", other);
+  stat.add("spikes removed (recent)", spk);
+  stat.add("spikes removed (total)", spikes_.total);
+  stat.add("spike threshold (rad/s)", spike_[0] ? p_.spikes.z * spike_[0]->sigma() : 0.0);
   stat.add("NaN/Inf dropped (total)", nonfinite_.total);
   stat.add("saturated dropped (total)", saturated_.total);
   stat.add("other source ignored (total)", other_source_.total);

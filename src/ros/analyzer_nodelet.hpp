@@ -23,6 +23,7 @@
 #include "gyro_allan/allan.hpp"
 #include "gyro_allan/noise_model.hpp"
 #include "gyro_allan/sliding_allan.hpp"
+#include "gyro_allan/spikes.hpp"
 #include "gyro_allan/timing.hpp"
 
 namespace gyro_allan {
@@ -56,6 +57,7 @@ struct AnalyzerParams {
   double rms_log10_warn = 0.1, rms_log10_error = 0.3;
   std::array<double, kNumTerms> spec_warn{{0, 0, 0, 0, 0}}, spec_error{{0, 0, 0, 0, 0}};
   double diagnostic_period = 1.0;
+  SpikeOptions spikes;             ///< ~spike_z: spike threshold in robust sigmas (imu rates; same rule as analyze_bag)
 };
 
 class AnalyzerNodelet : public nodelet::Nodelet {
@@ -105,6 +107,10 @@ class AnalyzerNodelet : public nodelet::Nodelet {
   };
   void drainGrid();
   void onDecision(const StampDecision& d);
+  void flushSpikes();
+  void emitSpikeOutput();
+  /// Adds one sample to the window (after the grid and the spike filter).
+  void analyse(const ros::Time& stamp, const std::array<double, 3>& v);
   bool checkRate(const ros::Time& stamp, int64_t index);
   void maybeHop(const ros::Time& stamp);
   void workerLoop();
@@ -136,6 +142,11 @@ class AnalyzerNodelet : public nodelet::Nodelet {
   std::unique_ptr<StampGrid> grid_;          ///< the sampler's grid behind the stamps (same rule as analyze_bag)
   std::deque<PendingSample> grid_values_;    ///< samples in the grid's lookahead, in push order
   bool new_timeline_ = true;                 ///< the next kept sample starts a segment
+  bool segment_pending_ = true;              ///< the next analysed sample starts a segment
+  std::array<std::unique_ptr<SpikeFilter>, 3> spike_;  ///< per axis (imu rates), reset with the window
+  std::array<std::vector<double>, 3> spike_out_;      ///< decided samples not yet analysed
+  std::deque<ros::Time> spike_stamps_;       ///< stamps of the samples inside the spike filters
+  int64_t spikes_seen_ = 0;                  ///< spikes of the current filters already logged
   double reinit_period_ = 0;                 ///< > 0: a rate change was seen; restart at this period
   int64_t missing_total_ = 0;                ///< grid slots without a sample
   double lag_max_total_ = 0, lag_max_recent_ = 0;  ///< stamp lag behind the grid slot [s]
@@ -162,6 +173,7 @@ class AnalyzerNodelet : public nodelet::Nodelet {
   int64_t temp_count_ = 0;
   uint64_t accepted_ = 0;
   ros::Time last_accept_wall_;
+  EventLog spikes_;
   EventLog out_of_order_, duplicate_, too_close_, zero_stamp_, gap_, rate_change_, nonfinite_, saturated_, other_source_,
       skipped_fits_;
 
