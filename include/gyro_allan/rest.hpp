@@ -26,8 +26,8 @@ namespace gyro_allan {
 struct RestOptions {
   double block_s = 1.0;           ///< statistic block length [s]; at least min_block_samples samples
   int min_block_samples = 16;     ///< shorter blocks are not formed (a segment tail this short joins the last block)
-  double block_z = 8.0;           ///< (a): a block-to-block change beyond this many noise units marks motion
-  double record_ratio = 5.0;      ///< (b): spread of block changes / white-noise prediction above which the window moves
+  double block_z = 11.0;          ///< (a): a block-to-block change beyond this many noise units marks motion
+  double record_ratio = 6.0;      ///< (b): spread of block changes / white-noise prediction above which the window moves
   int window_blocks = 60;         ///< trailing window of block changes for S (same in batch and streaming)
   int min_window_blocks = 8;      ///< S is used from this many block changes on
   double max_rest_rate = 0.35;    ///< (c) [rad/s]: 20 deg/s, the largest zero-rate offset of common consumer MEMS

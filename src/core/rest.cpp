@@ -434,6 +434,11 @@ RestResult detectRest(const std::vector<const std::vector<std::vector<double>>*>
   } else if (log.size() < 3) {
     r.reason = "at rest as far as can be told: only " + std::to_string(log.size()) + " block(s) of " +
                fmt("%g", opts.block_s) + " s";
+  } else if (r.score == 0 && r.spread == 0) {
+    r.reason = "at rest: no " + fmt("%g", opts.block_s) + " s block mean changes by more than " +
+               fmt("%g", opts.gyro_floor) + " rad/s (gyro)" +
+               (has_accel ? " or " + fmt("%g", opts.accel_floor) + " m/s^2 (accel)" : std::string()) +
+               ", the smallest change counted as motion";
   } else {
     r.reason = "at rest: largest block change " + fmt("%.3g", r.score) + "x the noise level (threshold " +
                fmt("%g", opts.block_z) + "x), largest spread " + fmt("%.3g", r.spread) + "x white noise (threshold " +
