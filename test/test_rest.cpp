@@ -1,7 +1,7 @@
 // Rest detector: real moved bags and simulated motion are not at rest, real and simulated static records are, the
 // streaming monitor decides the same blocks as the batch form, and bad input is refused.
 //
-// Seeds here (5001-5010) are neither the tuning seeds (1-40) nor the validation seeds (1001-1040) of rest_study.
+// Seeds here (5001-5030) are neither the tuning seeds (1-40) nor the validation seeds (1001-1040) of rest_study.
 #include <gtest/gtest.h>
 
 #include <cmath>
