@@ -2,6 +2,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -63,6 +64,13 @@ struct RestResult {
 /// sample, bad options).
 RestResult detectRest(const std::vector<const std::vector<std::vector<double>>*>& gyro,
                       const std::vector<const std::vector<std::vector<double>>*>& accel, double tau0,
+                      const RestOptions& opts = {});
+
+/// The same with the samples fetched one at a time (e.g. from compactly stored bag samples, without a copy of every
+/// axis): `segment_sizes` gap-free segments; sample(k, i, g, a) fills g[0..n_gyro) and, when has_accel, a[0..3) with
+/// sample i of segment k (finite values).
+RestResult detectRest(int n_gyro, bool has_accel, double tau0, const std::vector<size_t>& segment_sizes,
+                      const std::function<void(size_t, size_t, double*, double*)>& sample,
                       const RestOptions& opts = {});
 
 /// Convenience for one gap-free segment per axis.

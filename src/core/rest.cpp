@@ -371,16 +371,29 @@ RestResult detectRest(const std::vector<const std::vector<std::vector<double>>*>
     for (const auto& s : *p)
       for (double v : s)
         if (v != 0) has_accel = true;  // NaN also counts as published (and is refused below)
+  std::vector<size_t> sizes;
+  for (const auto& s : ref) sizes.push_back(s.size());
+  return detectRest(static_cast<int>(gyro.size()), has_accel, tau0, sizes,
+                    [&](size_t k, size_t i, double* g, double* a) {
+                      for (size_t c = 0; c < gyro.size(); ++c) g[c] = (*gyro[c])[k][i];
+                      if (has_accel)
+                        for (int c = 0; c < 3; ++c) a[c] = (*accel[c])[k][i];
+                    },
+                    opts);
+}
 
-  detail::RestEngine eng(tau0, static_cast<int>(gyro.size()), has_accel, opts);
+RestResult detectRest(int n_gyro, bool has_accel, double tau0, const std::vector<size_t>& segment_sizes,
+                      const std::function<void(size_t, size_t, double*, double*)>& sample, const RestOptions& opts) {
+  int64_t total = 0;
+  for (size_t n : segment_sizes) total += static_cast<int64_t>(n);
+  if (total == 0) throw std::invalid_argument("detectRest: no samples");
+  detail::RestEngine eng(tau0, n_gyro, has_accel, opts);
   std::vector<detail::BlockDecision> log;
   eng.log_ = &log;
   double g[3], a[3];
-  for (size_t k = 0; k < ref.size(); ++k) {
-    for (size_t i = 0; i < ref[k].size(); ++i) {
-      for (size_t c = 0; c < gyro.size(); ++c) g[c] = (*gyro[c])[k][i];
-      if (has_accel)
-        for (int c = 0; c < 3; ++c) a[c] = (*accel[c])[k][i];
+  for (size_t k = 0; k < segment_sizes.size(); ++k) {
+    for (size_t i = 0; i < segment_sizes[k]; ++i) {
+      sample(k, i, g, a);
       eng.add(g, has_accel ? a : nullptr);
     }
     eng.newSegment();
