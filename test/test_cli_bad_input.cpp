@@ -277,13 +277,16 @@ TEST_F(BadInput, SaturatedRunIsFlagged) {
 TEST_F(BadInput, BiasOf50RadPerSecondIsNotAGyroAtRest) {
   auto m = cleanRecord(10);
   for (auto& s : m) s.x += 50.0;  // deg/s data read as rad/s, or a spinning table
+  // The at-rest check refuses it (a mean rate above 0.35 rad/s is a turn, not a gyro bias): exit 3, one line.
   const Analysed a = analyse("bias50", m);
-  ASSERT_EQ(a.run.code, 0) << a.run.err;
-  expectWarning(a, "axis x: mean rate 50");
-  expectWarning(a, "not a gyro at rest");
-  EXPECT_EQ(a.run.err.find("axis y: mean"), std::string::npos) << a.run.err;
-  // A constant bias does not change the noise: ARW stays right.
-  EXPECT_NEAR(a.report["axes"]["x"]["coefficients"]["angle_random_walk"]["value"].as<double>() / 1e-3, 1.0, 0.1);
+  expectOneLineError(a.run, 3, "not at rest");
+  EXPECT_NE(a.run.err.find("mean rate 50"), std::string::npos) << a.run.err;
+  // --no-rest-check analyses it anyway, with the old warning on the mean.
+  const Analysed b = analyse("bias50_unchecked", m, "--no-rest-check");
+  ASSERT_EQ(b.run.code, 0) << b.run.err;
+  expectWarning(b, "axis x: mean rate 50");
+  expectWarning(b, "not a gyro at rest");
+  EXPECT_EQ(b.run.err.find("axis y: mean"), std::string::npos) << b.run.err;
 }
 
 TEST_F(BadInput, RecordTooShortForTheRequestedDuration) {

@@ -105,4 +105,54 @@ TEST_F(RealInputs, ArdroneLostPacketsAreCountedAsMissingSamples) {
   EXPECT_EQ(ss.report.too_close + ss.report.duplicate + ss.report.out_of_order, 0);
 }
 
+// Done-when of issue 14: every moving bag in ../shared/data/real_bags is called not at rest: exit 3 with one line
+// that says so, and no report or imu.yaml is written (never Kalibr values from a moving sensor).
+TEST_F(RealInputs, MovingRealBagsAreRefused) {
+  for (const char* bag : {"ardrone_imu", "phidgets_imu_upside_down", "sparkfun_razor"}) {
+    const std::string out = kOut + "/moving_" + bag;
+    std::system(("rm -rf " + out).c_str());
+    const ToolRun a = run(kTools + "/analyze_bag " + kShared + "/real_bags/" + bag + ".bag --output " + out);
+    EXPECT_EQ(a.code, 3) << bag << ": " << a.err;
+    EXPECT_EQ(std::count(a.err.begin(), a.err.end(), '\n'), 1) << a.err;
+    EXPECT_EQ(a.err.rfind("analyze_bag: error: not at rest: the sensor moved", 0), 0u) << a.err;
+    EXPECT_FALSE(std::ifstream(out + "/imu.yaml").good()) << bag;
+    EXPECT_FALSE(std::ifstream(out + "/report.yaml").good()) << bag;
+  }
+}
+
+// A static record with a 3 s bump (picked up, turned 0.3 rad/s peak about x, put back tilted) at 400 s of 600 s:
+// only the longest static stretch (before the bump) is analysed, said in the summary, report.yaml and imu.yaml, and
+// N still matches the declared 2e-4 rad/sqrt(s) (joint fit; 10 % is several sigma of N on 400 s at 200 Hz).
+TEST_F(RealInputs, BumpIsCutOutAndSaid) {
+  const std::string name = kOut + "/bump";
+  const ToolRun s = run(kTools + "/simulate --output " + name + ".bag --rate 200 --duration 600 --arw 2e-4 "
+                        "--bias-instability 2e-5 --seed 31 --bump-time 400 --bump-duration 3 --bump-rate 0.3");
+  ASSERT_EQ(s.code, 0) << s.err;
+  const ToolRun a = run(kTools + "/analyze_bag " + name + ".bag --output " + name);
+  ASSERT_EQ(a.code, 0) << a.err;
+  EXPECT_NE(a.out.find("motion: NOT AT REST outside 0.0-39"), std::string::npos) << a.out;
+  EXPECT_NE(a.err.find("only the longest static stretch is analysed"), std::string::npos) << a.err;
+  const YAML::Node rep = YAML::LoadFile(name + "/report.yaml");
+  EXPECT_FALSE(rep["motion"]["at_rest"].as<bool>());
+  EXPECT_EQ(rep["motion"]["analysed"].as<std::string>(), "longest static stretch");
+  const double to = rep["motion"]["to_s"].as<double>();
+  EXPECT_GT(to, 390.0);
+  EXPECT_LT(to, 400.0);
+  EXPECT_EQ(rep["axes"]["x"]["samples"].as<int64_t>() + rep["motion"]["excluded_samples"].as<int64_t>(),
+            rep["stamps"]["kept"].as<int64_t>());
+  for (const char* ax : {"x", "y", "z"})
+    EXPECT_NEAR(rep["axes"][ax]["coefficients"]["angle_random_walk"]["value"].as<double>(), 2e-4, 2e-5) << ax;
+  EXPECT_NE(slurp(name + "/imu.yaml").find("# Data: the longest static stretch"), std::string::npos);
+}
+
+// Static records are never called moving: the bundled default bag and the simulator's classes with undeclared
+// effects (the calibration itself is in test_rest and docs/rest_detection.md).
+TEST_F(RealInputs, StaticRecordsAreAtRest) {
+  const ToolRun a = run(kTools + "/analyze_bag " + std::string(GYRO_ALLAN_SOURCE_DIR) + "/bags/default.bag --output " +
+                        kOut + "/default");
+  ASSERT_EQ(a.code, 0) << a.err;
+  EXPECT_TRUE(YAML::LoadFile(kOut + "/default/report.yaml")["motion"]["at_rest"].as<bool>());
+  EXPECT_NE(slurp(kOut + "/default/imu.yaml").find("# Data: the whole record, at rest"), std::string::npos);
+}
+
 }  // namespace

@@ -39,6 +39,7 @@ struct KalibrParams {
   double update_rate_hz = 0;
   std::string rostopic;
   KalibrAxisRule rule = KalibrAxisRule::Worst;
+  std::string data_note;   ///< one comment line on what the values come from (e.g. the static stretch used); may be empty
 };
 
 /// Combines one term over axes: each axis contributes its value when supported, else its 1-sigma bound.

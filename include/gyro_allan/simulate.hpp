@@ -57,6 +57,12 @@ std::vector<double> simulateAxis(const AxisNoise& noise, double rate_hz, int64_t
 std::vector<double> receiptStamps(const std::vector<double>& t, double period, double jitter, double late,
                                   uint64_t seed);
 
+/// A sensor picked up and put back tilted: a half-sine rotation about x of peak rate `peak` [rad/s] from `start` for
+/// `duration` s (times as in t), added to gyro_x; gravity g on +z in the accelerometer tilts by the integrated angle
+/// (added to accel_y, accel_z; it stays tilted afterwards). Either accelerometer pointer may be null.
+void addTiltBump(const std::vector<double>& t, double start, double duration, double peak, double g,
+                 std::vector<double>* gyro_x, std::vector<double>* accel_y, std::vector<double>* accel_z);
+
 /// Flicker (1/f) rate noise with one-sided PSD B^2/(pi f) (so its AVAR plateau is (2 ln2/pi) B^2): Kasdin's
 /// fractional-integration filter applied by FFT.
 std::vector<double> flickerNoise(int64_t n, double b, uint64_t seed);

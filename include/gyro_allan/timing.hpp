@@ -61,6 +61,11 @@ struct SanitizedSeries {
   /// A side series (e.g. temperature at 1 Hz: stamps ts, values vs, same time origin) linearly interpolated onto the
   /// kept stamps, split like the segments; held constant beyond its ends. Empty when it has no finite point.
   std::vector<std::vector<double>> interpolateSegments(const std::vector<double>& ts, const std::vector<double>& vs) const;
+  /// Keeps only the kept samples [begin, end) (indices into the kept arrays, i.e. the segments one after the other)
+  /// in `segments`; the arrays themselves are unchanged. Returns the number of samples taken out of segments.
+  int64_t restrictTo(size_t begin, size_t end);
+  /// The same by stamp: the kept samples with first <= t <= last (needs `t`).
+  int64_t restrictToTime(double first, double last);
 };
 
 struct SanitizeOptions {

@@ -110,6 +110,7 @@ std::string kalibrYaml(const KalibrParams& p) {
   o << "# Kalibr IMU noise model (continuous-time densities) from gyro_allan analyze_bag.\n"
        "# Allan N (ARW) and K (rate random walk) ARE Kalibr's sigma_g and sigma_bg: no sqrt(2), no sqrt(rate).\n"
        "# Static-bench values: inflate deliberately (and say by how much) for a vibrating or heated platform.\n";
+  if (!p.data_note.empty()) o << "# Data: " << p.data_note << "\n";
   o << "rostopic: " << (p.rostopic.empty() ? "/imu" : p.rostopic)
     << (p.rostopic.empty() ? "  # input was not a bag: set your IMU topic" : "") << "\n";
   char buf[64];

@@ -212,4 +212,19 @@ std::vector<double> receiptStamps(const std::vector<double>& t, double period, d
   return out;
 }
 
+void addTiltBump(const std::vector<double>& t, double start, double duration, double peak, double g,
+                 std::vector<double>* gyro_x, std::vector<double>* accel_y, std::vector<double>* accel_z) {
+  if (!(duration > 0) || !std::isfinite(peak) || !gyro_x || gyro_x->size() != t.size())
+    throw std::invalid_argument("addTiltBump: duration > 0, finite peak and a gyro axis as long as t expected");
+  for (size_t i = 0; i < t.size(); ++i) {
+    const double u = (t[i] - start) / duration;
+    if (u < 0) continue;
+    // Angle of the half-sine rate integrated: peak * duration / pi * (1 - cos(pi u)), held at its end value.
+    const double angle = peak * duration / M_PI * (1.0 - std::cos(M_PI * std::min(u, 1.0)));
+    if (u <= 1) (*gyro_x)[i] += peak * std::sin(M_PI * u);
+    if (accel_y && i < accel_y->size()) (*accel_y)[i] += g * std::sin(angle);
+    if (accel_z && i < accel_z->size()) (*accel_z)[i] += g * (std::cos(angle) - 1.0);
+  }
+}
+
 }  // namespace gyro_allan

@@ -67,6 +67,26 @@ std::vector<std::vector<double>> SanitizedSeries::takeSegmentValues(int axis) {
   return out;
 }
 
+int64_t SanitizedSeries::restrictTo(size_t begin, size_t end) {
+  int64_t removed = 0;
+  std::vector<Segment> kept_segments;
+  for (const auto& seg : segments) {
+    const size_t b = std::max(seg.begin, begin), e = std::min(seg.end, end);
+    const size_t inside = e > b ? e - b : 0;
+    removed += static_cast<int64_t>(seg.size() - inside);
+    if (inside >= 2) kept_segments.push_back({b, e});
+    else removed += static_cast<int64_t>(inside);
+  }
+  segments = std::move(kept_segments);
+  return removed;
+}
+
+int64_t SanitizedSeries::restrictToTime(double first, double last) {
+  const size_t b = static_cast<size_t>(std::lower_bound(t.begin(), t.end(), first) - t.begin());
+  const size_t e = static_cast<size_t>(std::upper_bound(t.begin(), t.end(), last) - t.begin());
+  return restrictTo(b, e);
+}
+
 std::vector<std::vector<double>> SanitizedSeries::interpolateSegments(const std::vector<double>& ts,
                                                                       const std::vector<double>& vs) const {
   std::vector<std::pair<double, double>> pts;
@@ -383,6 +403,8 @@ SanitizedSeries sanitizeImpl(const std::vector<double>& t, const std::vector<con
   std::vector<float> lags;
   size_t n_keep = 0;
   bool have_prev = false;
+  double first_keep_t = 0, last_keep_t = 0;  // grid span of the record, for the final period
+  int64_t first_keep_k = 0, last_keep_k = 0;
   auto handle = [&](const StampDecision& d) {
     switch (d.verdict) {
       case StampVerdict::Duplicate: ++rep.duplicate; return;
@@ -393,7 +415,6 @@ SanitizedSeries sanitizeImpl(const std::vector<double>& t, const std::vector<con
     if (have_prev && d.missing > 0) {
       ++rep.gaps;
       rep.missing_samples += d.missing;
-      rep.gap_time_s += static_cast<double>(d.missing) * period;
       closeSegment(out.t.size());
     }
     if (n_keep++ % lag_step == 0) lags.push_back(static_cast<float>(d.lag));
@@ -408,6 +429,12 @@ SanitizedSeries sanitizeImpl(const std::vector<double>& t, const std::vector<con
             rep.max_rate_deviation, std::fabs((d.stamp - chunk_t0) / static_cast<double>(d.index - chunk_k0) / period - 1.0));
       chunk_n = 0;
     }
+    if (n_keep == 1) {
+      first_keep_t = d.stamp;
+      first_keep_k = d.index;
+    }
+    last_keep_t = d.stamp;
+    last_keep_k = d.index;
     const size_t i = static_cast<size_t>(d.tag);
     out.t.push_back(t[i]);
     if (keep_values) {
@@ -439,7 +466,15 @@ SanitizedSeries sanitizeImpl(const std::vector<double>& t, const std::vector<con
   // Nothing dropped (the usual case): the kept index is the identity and is not stored.
   if (!keep_values && out.kept.size() == t.size()) std::vector<uint32_t>().swap(out.kept);
   rep.kept = static_cast<int64_t>(out.t.size());
+  // The period over the whole grid (first to last kept stamp over their index difference): the block estimate
+  // started the grid, this one carries the jitter once over the whole record. Kept only when it agrees (a rate
+  // change makes the two differ; rate_changed says so).
+  if (options.nominal_rate_hz <= 0 && last_keep_k - first_keep_k >= 64) {
+    const double whole = (last_keep_t - first_keep_t) / static_cast<double>(last_keep_k - first_keep_k);
+    if (std::fabs(whole / period - 1.0) < 0.01) period = whole;
+  }
   rep.nominal_period_s = period;
+  rep.gap_time_s = static_cast<double>(rep.missing_samples) * period;
   rep.rate_hz = period > 0 ? 1.0 / period : 0.0;
   if (!lags.empty()) {
     std::sort(lags.begin(), lags.end());

@@ -255,6 +255,24 @@ YAML::Node buildReport(const ReportMeta& meta, const std::vector<AxisAnalysis>& 
   jit["max_s"] = num(meta.stamps.jitter_max_s);
   st["jitter"] = jit;
   r["stamps"] = st;
+  if (meta.rest_checked) {
+    YAML::Node m;
+    m["at_rest"] = meta.rest.at_rest;
+    m["analysed"] = meta.rest.at_rest ? "whole record" : (meta.rest_restricted ? "longest static stretch" : "whole record (not checked)");
+    m["reason"] = meta.rest.reason;
+    if (!meta.rest.channel.empty()) m["channel"] = meta.rest.channel;
+    m["moving_fraction"] = num(meta.rest.moving_fraction);
+    m["score"] = num(meta.rest.score);
+    m["spread"] = num(meta.rest.spread);
+    m["blocks"] = meta.rest.blocks;
+    m["moving_blocks"] = meta.rest.moving_blocks;
+    if (meta.rest_restricted) {
+      m["from_s"] = num(meta.rest_from_s);
+      m["to_s"] = num(meta.rest_to_s);
+      m["excluded_samples"] = meta.rest_excluded;
+    }
+    r["motion"] = m;
+  }
   r["warnings"] = YAML::Node(YAML::NodeType::Sequence);
   for (const auto& w : meta.warnings) r["warnings"].push_back(w);
   YAML::Node ax;

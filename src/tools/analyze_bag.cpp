@@ -33,6 +33,7 @@
 #include "gyro_allan/io/bag_input.hpp"
 #include "gyro_allan/io/report.hpp"
 #include "gyro_allan/kalibr.hpp"
+#include "gyro_allan/rest.hpp"
 #include "gyro_allan/timing.hpp"
 
 using namespace gyro_allan;
@@ -81,6 +82,8 @@ Analysis
   --keep-spikes          do not remove isolated spikes (default: samples more than 10 robust sigmas from the median
                          of their 16 neighbours, in runs of <= 3, are replaced before the analysis and reported with
                          the with-spikes figure alongside; docs/spikes.md)
+  --no-rest-check        skip the at-rest check (default: a record in which the sensor moved is analysed only over
+                         its longest static stretch of >= 60 s, or refused with exit 3; docs/rest_detection.md)
   --no-accel             skip the accelerometer (bags: linear_acceleration gets the same joint fit, mean removed)
 
 Output
@@ -111,6 +114,7 @@ struct Args {
   double rate = 0, confidence = 0.683, gap_factor = 1.5, start = 0, duration = 0;
   int jobs = 0;  // 0 = one per core
   bool bag_time = false, quiet = false, wavelet_split = true, model_check = true, keep_spikes = false;
+  bool rest_check = true;
 };
 
 struct UsageError : std::runtime_error {
@@ -160,6 +164,7 @@ Args parseArgs(int argc, char** argv) {
     else if (s == "--kalibr-axis") a.kalibr_axis = value();
     else if (s == "--no-accel") a.accel = false;
     else if (s == "--keep-spikes") a.keep_spikes = true;
+    else if (s == "--no-rest-check") a.rest_check = false;
     else if (s == "--no-plot") a.plot = false;
     else if (s == "--jobs" || s == "-j") {
       const double j = parseDouble(s, value());
@@ -246,6 +251,30 @@ void runPlot(const std::string& dir, bool quiet) {
   const int status = pclose(f);
   if (status == -1 || !WIFEXITED(status) || WEXITSTATUS(status) != 0)
     warn(last.empty() ? "plot_allan.py failed" : last);
+}
+
+/// The input's state for the printed summary: timeline and at-rest check, one line each (spikes follow the table).
+std::string inputSummary(const ReportMeta& meta) {
+  const StampReport& st = meta.stamps;
+  char buf[700];
+  std::string out;
+  std::snprintf(buf, sizeof buf, "arrival-time stamps (99 %% within %.3g ms of their slot), samples placed on a "
+                "regular grid", 1e3 * st.jitter_p99_s);
+  std::string stamps = st.receipt_stamps ? std::string(buf) : "regular";
+  if (st.gaps > 0) stamps += "; " + std::to_string(st.gaps) + " gaps (" + std::to_string(st.missing_samples) + " samples missing)";
+  const int64_t dropped = st.non_finite + st.zero_stamp + st.out_of_order + st.duplicate + st.too_close + st.short_segment;
+  if (dropped > 0) stamps += "; " + std::to_string(dropped) + " samples dropped (see warnings)";
+  std::snprintf(buf, sizeof buf, "stamps: %s\n", stamps.c_str());
+  out += buf;
+  if (meta.rest_checked) {
+    if (meta.rest.at_rest)
+      std::snprintf(buf, sizeof buf, "motion: %s\n", meta.rest.reason.c_str());
+    else
+      std::snprintf(buf, sizeof buf, "motion: NOT AT REST outside %.1f-%.1f s (%s): only that static stretch is analysed\n",
+                    meta.rest_from_s, meta.rest_to_s, meta.rest.reason.c_str());
+    out += buf;
+  }
+  return out;
 }
 
 /// One line for the user about the spikes removed from one gyro axis, with the with-spikes N alongside.
@@ -482,6 +511,60 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
     throw std::invalid_argument("too few valid samples (" + std::to_string(ss.report.kept) + " of " +
                                 std::to_string(ss.report.input) + ")");
   const double tau0 = ss.report.nominal_period_s;
+  // At rest? (rest.hpp) The gyro axes and, when published, the accelerometer, fed sample by sample from their stored
+  // form. A sensor that moved is analysed over its longest static stretch, or not at all.
+  double rest_t0 = 0, rest_t1 = 0;  // the analysed stretch by stamp (for the accelerometer's own sanitation)
+  bool accel_published = false;
+  if (args.accel && compact && !accel[0].empty() && accel[0].size() == n_stamps)
+    for (const auto& v : accel)
+      for (size_t i = 0; i < v.size() && !accel_published; ++i) accel_published = v[i] != 0 && std::isfinite(v[i]);
+  if (opt.input == InputKind::Rate && args.rest_check) {
+    std::vector<size_t> sizes;
+    for (const auto& seg : ss.segments) sizes.push_back(seg.size());
+    const size_t n_axes = compact ? 3 : names.size();
+    double last_a[3] = {0, 0, 0};
+    auto sample = [&](size_t k, size_t i, double* g, double* a) {
+      const size_t idx = ss.segments[k].begin + i;
+      if (compact) {
+        const size_t j = ss.kept.empty() ? idx : ss.kept[idx];
+        for (size_t c = 0; c < 3; ++c) g[c] = gyro_c[c][j];
+        if (accel_published)
+          for (size_t c = 0; c < 3; ++c) {
+            const double x = accel[c][j];
+            a[c] = std::isfinite(x) ? (last_a[c] = x) : last_a[c];  // a NaN accel sample: hold the last one
+          }
+      } else {
+        for (size_t c = 0; c < n_axes; ++c) g[c] = ss.v[c][idx];
+      }
+    };
+    meta.rest = detectRest(static_cast<int>(n_axes), accel_published, tau0, sizes, sample);
+    meta.rest_checked = true;
+    if (!meta.rest.at_rest) {
+      const RestInterval st = meta.rest.longest_static;
+      char buf[600];
+      if (!meta.rest.static_usable) {
+        std::snprintf(buf, sizeof buf,
+                      "not at rest: the sensor moved (%s); moving in %.0f %% of the record and no static stretch of "
+                      "%g s (longest %.1f s): noise coefficients need a static recording (--no-rest-check analyses "
+                      "it anyway)",
+                      meta.rest.reason.c_str(), 100 * meta.rest.moving_fraction, RestOptions().min_static_s,
+                      static_cast<double>(st.end - st.begin) * tau0);
+        throw std::invalid_argument(buf);
+      }
+      rest_t0 = ss.t[static_cast<size_t>(st.begin)];
+      rest_t1 = ss.t[static_cast<size_t>(st.end - 1)];
+      meta.rest_restricted = true;
+      meta.rest_from_s = rest_t0 - ss.t.front();
+      meta.rest_to_s = rest_t1 - ss.t.front();
+      meta.rest_excluded = ss.restrictTo(static_cast<size_t>(st.begin), static_cast<size_t>(st.end));
+      std::snprintf(buf, sizeof buf,
+                    "the sensor moved (%s; %.0f %% of the record): only the longest static stretch is analysed, "
+                    "%.1f-%.1f s (%.1f s of %.1f s)",
+                    meta.rest.reason.c_str(), 100 * meta.rest.moving_fraction, meta.rest_from_s, meta.rest_to_s,
+                    meta.rest_to_s - meta.rest_from_s, ss.t.back() - ss.t.front());
+      meta.warnings.push_back(buf);
+    }
+  }
   const std::vector<std::vector<double>> temperature_segments = ss.interpolateSegments(temp_t, temp_v);
   // Gyro axes as a task graph on --jobs threads: per axis prepare (oadev + fit), then the wavelet split and the
   // model check; a free thread takes the earliest ready stage, so axes are worked on in order and at most --jobs
@@ -547,10 +630,7 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
   std::vector<double> accel_means;
   std::string accel_error;  // set: not analysed, with this reason
   if (args.accel && compact && !accel[0].empty() && accel[0].size() == n_stamps) {
-    bool published = false;  // an IMU without accelerometer publishes zeros
-    for (const auto& v : accel)
-      for (size_t i = 0; i < v.size() && !published; ++i) published = v[i] != 0 && std::isfinite(v[i]);
-    if (!published) {
+    if (!accel_published) {  // an IMU without accelerometer publishes zeros
       accel_note = "accelerometer: linear_acceleration is all zero (not published?): not analysed";
     } else {
       accel_results.resize(3);
@@ -568,6 +648,7 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
     tasks.push_back([&] {
       try {
         sa = sanitizeCompact(t_c.toSeconds(), {&accel[0], &accel[1], &accel[2]}, so);
+        if (meta.rest_restricted) sa.restrictToTime(rest_t0, rest_t1);  // the gyro's static stretch
         t_c.clear();
         std::vector<double>().swap(sa.t);
       } catch (const std::exception& e) {
@@ -638,8 +719,18 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
     std::vector<std::array<Coefficient, kNumTerms>> gyro_c, accel_c;
     for (const auto& a : results) gyro_axes.push_back(a.axis), gyro_c.push_back(a.coefficients);
     for (const auto& a : accel_results) accel_axes.push_back(a.axis), accel_c.push_back(a.coefficients);
-    const KalibrParams kp = kalibrParams(gyro_axes, gyro_c, accel_axes, accel_c, 1.0 / tau0, meta.topic,
-                                         parseKalibrAxisRule(args.kalibr_axis));
+    KalibrParams kp = kalibrParams(gyro_axes, gyro_c, accel_axes, accel_c, 1.0 / tau0, meta.topic,
+                                   parseKalibrAxisRule(args.kalibr_axis));
+    if (meta.rest_restricted) {
+      char note[200];
+      std::snprintf(note, sizeof note, "the longest static stretch, %.1f-%.1f s of the record (the sensor moved outside it)",
+                    meta.rest_from_s, meta.rest_to_s);
+      kp.data_note = note;
+    } else if (meta.rest_checked) {
+      kp.data_note = "the whole record, at rest (at-rest check passed)";
+    } else if (opt.input == InputKind::Rate) {
+      kp.data_note = "the whole record; at-rest check skipped (--no-rest-check): valid only if the sensor was static";
+    }
     writeFileAtomic(args.output + "/imu.yaml", kalibrYaml(kp));
     if (args.format == "json") writeFileAtomic(args.output + "/report.json", toJson(report));
     else writeFileAtomic(args.output + "/report.yaml", toYaml(report));
@@ -648,9 +739,11 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
     return kExitOutput;
   }
   if (!args.quiet) {
+    const int64_t analysed = ss.report.kept - meta.rest_excluded;
     std::printf("%s%s: %lld samples, %.6g Hz, %.1f s, tau grid %s\n", meta.sources.front().c_str(),
-                meta.topic.empty() ? "" : (" " + meta.topic).c_str(), static_cast<long long>(ss.report.kept),
-                1.0 / tau0, static_cast<double>(ss.report.kept) * tau0, meta.tau_grid.c_str());
+                meta.topic.empty() ? "" : (" " + meta.topic).c_str(), static_cast<long long>(analysed), 1.0 / tau0,
+                static_cast<double>(analysed) * tau0, meta.tau_grid.c_str());
+    std::printf("%s", inputSummary(meta).c_str());
     std::printf("%s", summaryTable(results).c_str());
     if (!accel_results.empty()) std::printf("%s", accelSummaryTable(accel_results).c_str());
     if (!accel_note.empty()) std::printf("%s\n", accel_note.c_str());

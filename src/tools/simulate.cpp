@@ -47,6 +47,10 @@ Output:
   --start-time T            stamp of the first sample, s since epoch (default 1700000000)
   --stamp-jitter F          stamp on arrival: delay each stamp by a uniform 0..F periods (default 0)
   --late-fraction P         ... and hold back a fraction P of samples 2..10 periods (a burst follows; default 0)
+Not at rest (for testing the at-rest check):
+  --bump-time T --bump-duration D --bump-rate W
+                            the sensor is picked up at T s for D s: half-sine rotation about x, peak W rad/s,
+                            and put back tilted (gravity in the accelerometer follows the angle)
 )";
 
 double num(const std::string& flag, const char* v) {
@@ -66,6 +70,7 @@ int main(int argc, char** argv) {
   AxisNoise a;
   std::string output, topic = "/imu", frame = "imu_link", compression = "lz4";
   double accel_noise = 1e-3, accel_lsb = 0, start_time = 1700000000.0, stamp_jitter = 0, late_fraction = 0;
+  double bump_time = 0, bump_duration = 0, bump_rate = 0;
   for (int i = 1; i < argc; ++i) {
     const std::string s = argv[i];
     auto v = [&]() -> const char* {
@@ -107,6 +112,9 @@ int main(int argc, char** argv) {
     else if (s == "--compression") compression = v();
     else if (s == "--start-time") start_time = num(s, v());
     else if (s == "--stamp-jitter") stamp_jitter = num(s, v());
+    else if (s == "--bump-time") bump_time = num(s, v());
+    else if (s == "--bump-duration") bump_duration = num(s, v());
+    else if (s == "--bump-rate") bump_rate = num(s, v());
     else if (s == "--late-fraction") late_fraction = num(s, v());
     else {
       std::cerr << "simulate: error: unknown option " << s << " (see --help)\n";
@@ -140,6 +148,14 @@ int main(int argc, char** argv) {
     an.bias = k == 2 ? 9.80665 : 0.0;
     an.rate_lsb = accel_lsb;
     acc[k] = simulateAxis(an, spec.rate_hz, static_cast<int64_t>(d.t.size()), spec.seed ^ 0xACCE1ULL, k);
+  }
+  if (bump_rate != 0) {
+    try {
+      addTiltBump(d.t, bump_time, bump_duration, bump_rate, 9.80665, &d.rate[0], &acc[1], &acc[2]);
+    } catch (const std::exception& e) {
+      std::cerr << "simulate: error: " << e.what() << "\n";
+      return 1;
+    }
   }
   const bool csv = output.size() > 4 && output.compare(output.size() - 4, 4, ".csv") == 0;
   try {

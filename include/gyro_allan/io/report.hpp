@@ -8,6 +8,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include "gyro_allan/analysis.hpp"
+#include "gyro_allan/rest.hpp"
 #include "gyro_allan/timing.hpp"
 
 namespace gyro_allan {
@@ -22,6 +23,12 @@ struct ReportMeta {
   double confidence = 0.683;
   StampReport stamps;
   std::vector<std::string> warnings;
+  /// At-rest check (rest.hpp), rate input.
+  bool rest_checked = false;
+  RestResult rest;
+  bool rest_restricted = false;       ///< only the longest static stretch was analysed
+  double rest_from_s = 0, rest_to_s = 0;  ///< that stretch, s from the first kept stamp
+  int64_t rest_excluded = 0;          ///< kept samples left out of the analysis as moving
 };
 
 /// The report as a YAML tree (schema in README "report.yaml").
