@@ -190,7 +190,9 @@ TEST(ModelCheck, KeptEffectsLowerTheErrorAndAreSignificant) {
       const Outcome o = run(c.a, c.rate_hz, 3600.0, seed, c.temperature);
       expectRuleHolds(o.mc, c.name + " seed " + std::to_string(seed));
       kept += !o.mc.effects.empty();
-      if (c.name.rfind("consumer", 0) == 0 || c.name == "nav") EXPECT_TRUE(o.mc.effects.empty()) << c.name;
+      if (c.name.rfind("consumer", 0) == 0 || c.name == "nav") {
+        EXPECT_TRUE(o.mc.effects.empty()) << c.name;
+      }
     }
   }
   EXPECT_GE(kept, 6);  // the rule does not reject everything (12 runs with an injected effect)

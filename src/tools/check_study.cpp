@@ -4,7 +4,8 @@
 //   check_study [--seeds A-B] [--class NAME[,NAME...]] [--csv FILE] [gate options]
 //
 // Classes (all 1 h; see classes() below for the numbers):
-//   controls: consumer, consumer_lsb (200 Hz), consumer_100, consumer_lsb_100 (100 Hz), tactical, fog, rlg, nav
+//   controls: consumer, consumer_lsb (200 Hz), consumer_100, consumer_lsb_100 (100 Hz), tactical, fog, rlg, nav, flicker,
+//             random_walk
 //   injected (on nav): sinusoid, gauss_markov, bias_step, thermal (warm-up with temperature), warmup (without)
 // Gate options (ModelCheckOptions): --min-rms-gain X, --min-amplitude-z X, --max-nonlinear-rel-sigma X.
 #include <cmath>
@@ -114,6 +115,18 @@ std::vector<Class> classes() {
   {
     Class k = make("nav", "", 100, 3600);  // test_model_check's base noise
     k.a = base();
+    c.push_back(k);
+  }
+  {
+    Class k = make("flicker", "", 100, 3600);  // validate_adis controls mix 2: N + strong flicker
+    k.a.angle_random_walk = 1e-4;
+    k.a.bias_instability = 3e-5;
+    c.push_back(k);
+  }
+  {
+    Class k = make("random_walk", "", 100, 3600);  // validate_adis controls mix 3: N + strong random walk
+    k.a.angle_random_walk = 1e-4;
+    k.a.rate_random_walk = 3e-6;
     c.push_back(k);
   }
   {
