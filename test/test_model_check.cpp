@@ -1,5 +1,6 @@
 // Closed-loop model check on simulated gyros with one undeclared effect each (no hint given to the analyzer), and
-// on clean controls: effect found with its parameters, error reduced, base coefficients back to the truth.
+// on clean controls: effect found with its parameters, error reduced, base coefficients back to the truth; the
+// acceptance rule (kept effects lower the RMS error by min_rms_gain and are significant) over classes and seeds.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -224,6 +225,41 @@ TEST(ModelCheck, EffectsThatWorsenTheFitAreNotKept) {
       EXPECT_TRUE(reported);
     }
   }
+}
+
+TEST(ModelCheck, SignificanceGatesRejectWithNumbers) {
+  // The significance options are honoured and every rejection says why: the Gauss-Markov case of GaussMarkovFound
+  // (tau_c known to ~10 %) with max_nonlinear_rel_sigma 1 %, and the 2.5 Hz sinusoid of SinusoidFound (~20 sigma)
+  // with min_amplitude_z 1000: nothing kept, the plain fit is the answer.
+  SimulationSpec spec;
+  spec.rate_hz = 100.0;
+  spec.duration_s = 3600.0;
+  spec.seed = 1;
+  spec.axes[0] = baseNoise();
+  spec.axes[0].gm_tau = 10.0;
+  spec.axes[0].gm_sigma = 1e-4;
+  spec.axes[0].sine_frequency = 2.5;
+  spec.axes[0].sine_amplitude = 5e-4;
+  const SimulatedData d = simulate(spec);
+  DeviationOptions o;
+  o.grid.kind = TauGridKind::Log;
+  o.grid.per_decade = 10;
+  const DeviationCurve curve = oadev(d.rate[0], 0.01, o);
+  ModelCheckOptions mo;
+  mo.max_nonlinear_rel_sigma = 0.01;
+  mo.min_amplitude_z = 1000.0;
+  const ModelCheck mc = checkModel(d.rate[0], 0.01, curve, fitNoiseModel(curve, mo.fit), mo);
+  ASSERT_TRUE(mc.ok) << mc.message;
+  EXPECT_TRUE(mc.effects.empty());
+  EXPECT_DOUBLE_EQ(mc.after.rms_log10, mc.before.rms_log10);
+  bool sine = false, gm = false;
+  for (const auto& r : mc.rejected) {
+    sine = sine || (r.rfind("sinusoid: amplitude", 0) == 0 && r.find("sigma (needs 1000") != std::string::npos);
+    gm = gm || (r.rfind("gauss_markov:", 0) == 0 &&
+                (r.find("needs <= 1 %") != std::string::npos || r.find("sigma (needs 1000") != std::string::npos));
+  }
+  EXPECT_TRUE(sine);
+  EXPECT_TRUE(gm);
 }
 
 TEST(ModelCheck, SinusoidFound) {

@@ -1,6 +1,7 @@
 // Closing the loop on the IEEE 952 fit: residual structure, tracing it to an effect the model lacks (sinusoid,
 // narrowband oscillation, Gauss-Markov, bias step, thermal drift, outliers) with evidence from the raw samples,
-// joint refit with that effect as an ExtraTerm, kept only when the BIC improves.
+// joint refit with that effect as an ExtraTerm, kept only when the BIC improves, its parameters are significant and
+// the final joint model's RMS log10 error is lower with it than without it (docs/model_check.md, acceptance rule).
 #pragma once
 
 #include <map>
