@@ -1,8 +1,10 @@
 // Closed-loop model check on simulated gyros with one undeclared effect each (no hint given to the analyzer), and
-// on clean controls: effect found with its parameters, error reduced, base coefficients back to the truth.
+// on clean controls: effect found with its parameters, error reduced, base coefficients back to the truth; the
+// acceptance rule (kept effects lower the RMS error by min_rms_gain and are significant) over classes and seeds.
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdlib>
 #include <complex>
 #include <cstdio>
 #include <functional>
@@ -109,7 +111,156 @@ void expectBaseRecovered(const FitResult& f, const AxisNoise& truth) {
   }
 }
 
+// The acceptance rule: kept effects lower the RMS log10 error by min_rms_gain (jointly, against the plain fit), each
+// has a non-zero amplitude significant at min_amplitude_z in the final joint refit and a searched nonlinear parameter
+// (tau_c_s, theta_s) within max_nonlinear_rel_sigma; no effect kept: the answer is the plain fit.
+void expectRuleHolds(const ModelCheck& mc, const std::string& what) {
+  SCOPED_TRACE(what);
+  const ModelCheckOptions mo;
+  ASSERT_TRUE(mc.ok) << mc.message;
+  if (mc.effects.empty()) {
+    EXPECT_DOUBLE_EQ(mc.after.rms_log10, mc.before.rms_log10);
+    return;
+  }
+  EXPECT_LT(mc.after.rms_log10, mc.before.rms_log10 * (1.0 - mo.min_rms_gain));
+  ASSERT_EQ(mc.fit_after.extra.size(), mc.effects.size());
+  for (size_t e = 0; e < mc.effects.size(); ++e) {
+    const Coefficient& c = mc.fit_after.extra[e];
+    EXPECT_GT(c.value, 0.0) << mc.effects[e].type;
+    EXPECT_GE(c.value, mo.min_amplitude_z * c.sigma) << mc.effects[e].type << " " << c.value << " +- " << c.sigma;
+    for (const char* nl : {"tau_c_s", "theta_s"}) {
+      auto it = mc.effects[e].parameters.find(nl);
+      if (it == mc.effects[e].parameters.end()) continue;
+      EXPECT_GT(it->second.value, 0.0);
+      EXPECT_LE(it->second.sigma, mo.max_nonlinear_rel_sigma * it->second.value) << nl;
+    }
+  }
+}
+
+// Sensor classes of check_study (src/tools/check_study.cpp), for the property tests.
+struct StudyCase {
+  std::string name;
+  AxisNoise a;
+  double rate_hz = 100;
+  bool temperature = false;
+};
+AxisNoise consumerMems() {  // N 0.5 deg/sqrt(h), B 20 deg/h, K 10 deg/h/sqrt(h)
+  AxisNoise a;
+  const double deg = M_PI / 180.0;
+  a.angle_random_walk = 0.5 * deg / 60.0;
+  a.bias_instability = 20 * deg / 3600.0;
+  a.rate_random_walk = 10 * deg / 3600.0 / 60.0;
+  return a;
+}
+std::vector<StudyCase> studyCases(uint64_t seed) {
+  std::vector<StudyCase> v;
+  v.push_back({"consumer", consumerMems(), 200});
+  AxisNoise q = consumerMems();
+  q.rate_lsb = 0.061 * M_PI / 180.0;
+  v.push_back({"consumer_lsb", q, 200});
+  v.push_back({"nav", baseNoise()});
+  AxisNoise s = baseNoise();
+  s.sine_amplitude = 1e-4;
+  s.sine_frequency = 1.3;
+  v.push_back({"sinusoid", s});
+  AxisNoise g = baseNoise();
+  g.gm_sigma = 6e-5;
+  g.gm_tau = 10.0;
+  v.push_back({"gauss_markov", g});
+  AxisNoise b = baseNoise();
+  b.step_size = 3e-4;
+  b.step_time = (0.2 + 0.6 * static_cast<double>((seed * 37) % 100) / 100.0) * 3600.0;
+  v.push_back({"bias_step", b});
+  AxisNoise t = baseNoise();
+  t.thermal_amplitude = 3e-4;
+  t.thermal_tau = 200.0;
+  v.push_back({"thermal", t, 100, true});
+  v.push_back({"warmup", t});
+  return v;
+}
+
 }  // namespace
+
+TEST(ModelCheck, KeptEffectsLowerTheErrorAndAreSignificant) {
+  // Property over sensor classes (clean consumer MEMS with and without output rounding, navigation-grade base
+  // noise) and weak injected effects (sinusoid, Gauss-Markov, bias step, warm-up with and without temperature), two
+  // seeds each: whatever is kept obeys the rule, whatever is not leaves the plain fit.
+  int kept = 0;
+  for (uint64_t seed : {3, 11}) {
+    for (const StudyCase& c : studyCases(seed)) {
+      const Outcome o = run(c.a, c.rate_hz, 3600.0, seed, c.temperature);
+      expectRuleHolds(o.mc, c.name + " seed " + std::to_string(seed));
+      kept += !o.mc.effects.empty();
+      if (c.name.rfind("consumer", 0) == 0 || c.name == "nav") {
+        EXPECT_TRUE(o.mc.effects.empty()) << c.name;
+      }
+    }
+  }
+  EXPECT_GE(kept, 6);  // the rule does not reject everything (12 runs with an injected effect)
+}
+
+TEST(ModelCheck, EffectsThatWorsenTheFitAreNotKept) {
+  // Reproduces "weak effects accepted": cases where the previous selection kept an effect whose refit had a larger
+  // RMS log10 error than the plain fit (check_study, seeds 1-30): a warm-up with its temperature series
+  // (thermal_drift 0.00618 -> 0.00713, seed 2), a bias step (0.00444 -> 0.00656, seed 17) and a weak sinusoid
+  // (0.01449 -> 0.01454, seed 7). Now: nothing kept, the plain fit is the answer, and the candidate is in
+  // `rejected` with the RMS numbers. (The static consumer MEMS, where a Gauss-Markov term came from one lag,
+  // did not reproduce in simulation: 0 effects on 240 simulated consumer-MEMS hours with the previous code; the
+  // clean consumer classes of the property test above cover it.)
+  struct Case {
+    std::string name, type;
+    uint64_t seed;
+  };
+  for (const Case& k : {Case{"thermal", "thermal_drift", 2}, Case{"bias_step", "bias_step", 17},
+                        Case{"sinusoid", "sinusoid", 7}}) {
+    SCOPED_TRACE(k.name);
+    for (const StudyCase& c : studyCases(k.seed)) {
+      if (c.name != k.name) continue;
+      const Outcome o = run(c.a, c.rate_hz, 3600.0, k.seed, c.temperature);
+      expectRuleHolds(o.mc, k.name);
+      EXPECT_TRUE(o.mc.effects.empty()) << o.mc.effects.front().type;
+      bool reported = false;
+      for (const auto& r : o.mc.rejected)
+        reported = reported || (r.rfind(k.type + ":", 0) == 0 && r.find("RMS log10 error") != std::string::npos);
+      EXPECT_TRUE(reported);
+    }
+  }
+}
+
+TEST(ModelCheck, SignificanceGatesRejectWithNumbers) {
+  // The significance options are honoured and every rejection says why: the Gauss-Markov case of GaussMarkovFound
+  // (tau_c known to ~10 %) with max_nonlinear_rel_sigma 1 %, and the 2.5 Hz sinusoid of SinusoidFound (~20 sigma)
+  // with min_amplitude_z 1000: nothing kept, the plain fit is the answer.
+  SimulationSpec spec;
+  spec.rate_hz = 100.0;
+  spec.duration_s = 3600.0;
+  spec.seed = 1;
+  spec.axes[0] = baseNoise();
+  spec.axes[0].gm_tau = 10.0;
+  spec.axes[0].gm_sigma = 1e-4;
+  spec.axes[0].sine_frequency = 2.5;
+  spec.axes[0].sine_amplitude = 5e-4;
+  const SimulatedData d = simulate(spec);
+  DeviationOptions o;
+  o.grid.kind = TauGridKind::Log;
+  o.grid.per_decade = 10;
+  const DeviationCurve curve = oadev(d.rate[0], 0.01, o);
+  ModelCheckOptions mo;
+  mo.max_nonlinear_rel_sigma = 0.01;
+  mo.min_amplitude_z = 1000.0;
+  const ModelCheck mc = checkModel(d.rate[0], 0.01, curve, fitNoiseModel(curve, mo.fit), mo);
+  ASSERT_TRUE(mc.ok) << mc.message;
+  EXPECT_TRUE(mc.effects.empty());
+  EXPECT_DOUBLE_EQ(mc.after.rms_log10, mc.before.rms_log10);
+  bool sine = false, gm = false;
+  for (const auto& r : mc.rejected) {
+    sine = sine || (r.rfind("sinusoid: amplitude", 0) == 0 && r.find("sigma (needs 1000") != std::string::npos);
+    gm = gm || (r.rfind("gauss_markov:", 0) == 0 &&
+                (r.find("needs <= 1 %") != std::string::npos || r.find("sigma (needs 1000") != std::string::npos));
+  }
+  EXPECT_TRUE(sine);
+  EXPECT_TRUE(gm);
+}
 
 TEST(ModelCheck, SinusoidFound) {
   // 2.5 Hz and 0.2 Hz sinusoids (100 Hz, 1 h): f0 within 5 %, amplitude within 20 %, RMS log10 residual down >= 5x.
@@ -151,23 +302,50 @@ TEST(ModelCheck, GaussMarkovFound) {
 }
 
 TEST(ModelCheck, BiasStepFound) {
-  // 0.3 mrad/s step at 37 % of a 1 h record. A step's AVAR is h^2 tau / (3 (T - 2 tau)), nearly the rate random
-  // walk shape with K^2 = h^2 / T, so the plain fit absorbs it into K and its RMS error is not large to begin
-  // with: asserted are the step (time within 1 % of the record, size within 20 %), a plain-fit K inflated far above
-  // the truth that the refit no longer needs, N within 3 %, and an error that does not grow by more than 25 %.
-  AxisNoise a = baseNoise();
-  a.step_size = 3e-4;
-  a.step_time = 0.37 * 3600.0;
-  const Outcome o = run(a, 100.0, 3600.0, 1);
-  ASSERT_FALSE(o.mc.effects.empty());
-  const DetectedEffect& e = o.mc.effects.front();
-  EXPECT_EQ(e.type, "bias_step");
-  EXPECT_NEAR(param(e, "time_s"), a.step_time, 0.01 * 3600.0);
-  EXPECT_NEAR(param(e, "size"), a.step_size, 0.2 * a.step_size);
-  EXPECT_GT(o.mc.fit_before.terms[kRateRandomWalk].value, 5.0 * a.rate_random_walk);
-  EXPECT_LE(o.mc.after.rms_log10, 1.25 * o.mc.before.rms_log10);
-  EXPECT_LT(o.mc.after.bic, o.mc.before.bic - 10.0);
-  expectBaseRecovered(o.mc.fit_after, a);
+  // 0.3 mrad/s step. A step's AVAR is h^2 tau / (3 (T - 2 tau)), nearly the rate random walk shape with
+  // K^2 = h^2 / T, so the plain fit absorbs it into K and its RMS error is not large to begin with.
+  //
+  // At 37 % of a 1 h record (seed 1) the step is found in the raw samples but its refit describes the curve worse
+  // (RMS log10 0.0066 -> 0.0080): this test used to assert that the step was kept anyway (the bias step was exempt
+  // from the RMS rule). Since the model check never keeps an effect that does not lower the RMS error by
+  // min_rms_gain, the answer here is the plain fit, and the step is reported in `rejected` with its evidence (time,
+  // size) and the RMS numbers that rejected it.
+  {
+    AxisNoise a = baseNoise();
+    a.step_size = 3e-4;
+    a.step_time = 0.37 * 3600.0;
+    const Outcome o = run(a, 100.0, 3600.0, 1);
+    ASSERT_TRUE(o.mc.ok) << o.mc.message;
+    EXPECT_TRUE(o.mc.effects.empty());
+    EXPECT_DOUBLE_EQ(o.mc.after.rms_log10, o.mc.before.rms_log10);
+    EXPECT_GT(o.mc.fit_before.terms[kRateRandomWalk].value, 5.0 * a.rate_random_walk);
+    bool reported = false;
+    for (const auto& r : o.mc.rejected)
+      if (r.rfind("bias_step:", 0) == 0 && r.find("RMS log10 error") != std::string::npos) {
+        reported = true;
+        const size_t at = r.find("at t = ");
+        ASSERT_NE(at, std::string::npos) << r;
+        EXPECT_NEAR(std::atof(r.c_str() + at + 7), a.step_time, 0.01 * 3600.0) << r;
+      }
+    EXPECT_TRUE(reported);
+  }
+  // At 24 % of the record (seed 11) the step's refit lowers the error: kept, time within 1 % of the record, size
+  // within 20 %, a plain-fit K inflated far above the truth that the refit no longer needs, N within 3 %.
+  {
+    AxisNoise a = baseNoise();
+    a.step_size = 3e-4;
+    a.step_time = 0.242 * 3600.0;
+    const Outcome o = run(a, 100.0, 3600.0, 11);
+    ASSERT_FALSE(o.mc.effects.empty());
+    const DetectedEffect& e = o.mc.effects.front();
+    EXPECT_EQ(e.type, "bias_step");
+    EXPECT_NEAR(param(e, "time_s"), a.step_time, 0.01 * 3600.0);
+    EXPECT_NEAR(param(e, "size"), a.step_size, 0.2 * a.step_size);
+    EXPECT_GT(o.mc.fit_before.terms[kRateRandomWalk].value, 5.0 * a.rate_random_walk);
+    EXPECT_LT(o.mc.after.rms_log10, (1.0 - ModelCheckOptions{}.min_rms_gain) * o.mc.before.rms_log10);
+    EXPECT_LT(o.mc.after.bic, o.mc.before.bic - 10.0);
+    expectBaseRecovered(o.mc.fit_after, a);
+  }
 }
 
 TEST(ModelCheck, ThermalDriftWithTemperature) {
