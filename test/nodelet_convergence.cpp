@@ -89,6 +89,7 @@ class Harness {
     for (size_t k = 0; k < t.size(); ++k) delay_[k] = r[k] - t[k];
   }
   void jittered(bool on) { jittered_ = on; }
+  void moving(bool on) { moving_ = on; }
 
   bool waitForSubscriber(double timeout_s) {
     const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(timeout_s);
@@ -118,7 +119,9 @@ class Harness {
 
   void publishNext(double override_x = NAN, bool use_override = false) {
     const size_t k = next_ % data_[0].size();
-    publish(stamp(next_), use_override ? override_x : data_[0][k], data_[1][k], data_[2][k]);
+    // Hand-waving when moving(true): 0.5 rad/s at 0.5 Hz about x.
+    const double wave = moving_ ? 0.5 * std::sin(M_PI * static_cast<double>(next_) / kRate) : 0.0;
+    publish(stamp(next_), use_override ? override_x : data_[0][k] + wave, data_[1][k], data_[2][k]);
     ++next_;
   }
   void publish(const ros::Time& stamp, double x, double y, double z) {
@@ -197,7 +200,7 @@ class Harness {
   ros::Subscriber noise_sub_, diag_sub_;
   std::vector<double> data_[3];
   std::vector<double> delay_;
-  bool jittered_ = false;
+  bool jittered_ = false, moving_ = false;
   ros::Time t0_{1000.0};
   int64_t next_ = 0;
   std::mutex mutex_;
@@ -313,6 +316,23 @@ TEST(NodeletConvergence, ConvergesReactsAndRecovers) {
   EXPECT_TRUE(h.publishUntil(15.0, [&] { return h.reports() >= before_glitch + 3 && h.level("stamps") == OK; }))
       << "after a future stamp: reports " << h.reports() - before_glitch << ", stamps '" << h.message("stamps") << "'";
   expectConverged(h.lastReport(), "after a stamp glitch");
+
+  // G. The IMU is picked up and waved (0.5 rad/s): "motion" goes to WARN "not at rest", no new answer is published
+  // while it moves (the last static one is held), and after it is put down a new window converges again.
+  h.clearMax();
+  EXPECT_EQ(h.level("motion"), OK) << h.message("motion");
+  h.moving(true);
+  EXPECT_TRUE(h.publishUntil(10.0, [&] { return h.level("motion") == WARN; })) << "motion not reported: "
+                                                                               << h.message("motion");
+  EXPECT_NE(h.message("motion").find("not at rest"), std::string::npos) << h.message("motion");
+  const int during = h.reports();
+  h.publishFor(4.0);
+  EXPECT_EQ(h.reports(), during) << "an answer was published while the sensor moved";
+  EXPECT_EQ(h.level("motion"), WARN) << h.message("motion");
+  h.moving(false);
+  EXPECT_TRUE(h.publishUntil(15.0, [&] { return h.level("motion") == OK && h.reports() >= during + 3; }))
+      << "after motion: motion '" << h.message("motion") << "', reports " << h.reports() - during;
+  expectConverged(h.lastReport(), "after motion");
 }
 
 int main(int argc, char** argv) {

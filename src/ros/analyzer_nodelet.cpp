@@ -96,6 +96,7 @@ void AnalyzerNodelet::loadParams() {
     p_.method = "joint_fit";
   }
   pnh.param("model_check", p_.model_check, def.model_check);
+  pnh.param("rest_check", p_.rest_check, def.rest_check);
   getD("spike_z", &p_.spikes.z, def.spikes.z);
   if (!(p_.spikes.z >= 0)) {
     NODELET_ERROR("parameter ~spike_z = %g must be >= 0 (0: keep spikes); using %g", p_.spikes.z, def.spikes.z);
@@ -256,6 +257,7 @@ void AnalyzerNodelet::onInit() {
   updater_->add("stamps", this, &AnalyzerNodelet::diagStamps);
   updater_->add("input values", this, &AnalyzerNodelet::diagValues);
   updater_->add("window", this, &AnalyzerNodelet::diagWindow);
+  updater_->add("motion", this, &AnalyzerNodelet::diagMotion);
   updater_->add("fit quality", this, &AnalyzerNodelet::diagFit);
   for (int t = 0; t < kNumTerms; ++t) {
     updater_->add(kTermLabel[t], [this, t](diagnostic_updater::DiagnosticStatusWrapper& s) { diagTerm(t, s); });
@@ -306,6 +308,7 @@ void AnalyzerNodelet::initAccumulators(double tau0) {
   spike_stamps_.clear();
   spikes_seen_ = 0;
   segment_pending_ = true;
+  rest_.reset();  // created with the first sample at this rate
   for (const auto& s : grid_values_) grid_->push(s.stamp.toSec());
   new_timeline_ = true;
   reinit_period_ = 0;
@@ -316,7 +319,8 @@ void AnalyzerNodelet::initAccumulators(double tau0) {
 // ------------------------------------------------------------------------------------------------ input
 void AnalyzerNodelet::imuCallback(const sensor_msgs::Imu::ConstPtr& msg) {
   const std::array<double, 3> v{{msg->angular_velocity.x, msg->angular_velocity.y, msg->angular_velocity.z}};
-  processSample(Source::Imu, msg->header.stamp, v, msg->header.frame_id);
+  const std::array<double, 3> acc{{msg->linear_acceleration.x, msg->linear_acceleration.y, msg->linear_acceleration.z}};
+  processSample(Source::Imu, msg->header.stamp, v, msg->header.frame_id, &acc);
 }
 
 void AnalyzerNodelet::angleCallback(const geometry_msgs::Vector3Stamped::ConstPtr& msg) {
@@ -376,7 +380,7 @@ bool AnalyzerNodelet::checkRate(const ros::Time& stamp, int64_t index) {
 }
 
 void AnalyzerNodelet::processSample(Source source, const ros::Time& stamp, const std::array<double, 3>& v,
-                                    const std::string& frame_id) {
+                                    const std::string& frame_id, const std::array<double, 3>* accel) {
   try {
     std::lock_guard<std::mutex> lock(mutex_);
     const ros::Time now = ros::Time::now();
@@ -449,7 +453,7 @@ void AnalyzerNodelet::processSample(Source source, const ros::Time& stamp, const
       drainGrid();
       new_timeline_ = true;
     }
-    grid_values_.push_back({stamp, v, dropped_since_last_});
+    grid_values_.push_back({stamp, v, accel ? *accel : std::array<double, 3>{{0, 0, 0}}, dropped_since_last_});
     dropped_since_last_ = false;
     grid_->push(stamp.toSec());
     drainGrid();
@@ -485,6 +489,7 @@ void AnalyzerNodelet::onDecision(const StampDecision& d) {
   const bool gap = d.missing > 0 || new_timeline_;
   new_timeline_ = false;
   if (checkRate(smp.stamp, d.index)) return;  // the caller restarts the accumulators at the new rate
+  if (source_ == Source::Imu && p_.rest_check && !checkRest(smp, gap)) return;  // moving: not analysed
   if (source_ != Source::Imu || !spike_[0]) {  // angles, or ~spike_z 0: no spike filter
     if (gap) segment_pending_ = true;
     analyse(smp.stamp, smp.v);
@@ -499,6 +504,64 @@ void AnalyzerNodelet::onDecision(const StampDecision& d) {
   spike_stamps_.push_back(smp.stamp);
   for (int a = 0; a < 3; ++a) spike_[a]->push(smp.v[a], &spike_out_[a]);
   emitSpikeOutput();
+}
+
+bool AnalyzerNodelet::checkRest(const PendingSample& smp, bool gap) {
+  // The same rest detector as analyze_bag (rest.hpp), on the gyro and, when it publishes, the accelerometer.
+  if (!rest_) {
+    const bool has_accel = std::isfinite(smp.a[0]) && std::isfinite(smp.a[1]) && std::isfinite(smp.a[2]) &&
+                           (smp.a[0] != 0 || smp.a[1] != 0 || smp.a[2] != 0);
+    rest_.reset(new RestMonitor(tau0_, 3, has_accel, p_.rest));
+    rest_has_accel_ = has_accel;
+    last_accel_ = {{0, 0, 0}};
+  }
+  if (gap) rest_->newSegment();
+  std::array<double, 3> a = smp.a;
+  for (int k = 0; k < 3; ++k) {
+    if (std::isfinite(a[k])) last_accel_[k] = a[k];
+    else a[k] = last_accel_[k];  // a NaN accelerometer sample: hold the last one
+  }
+  bool moving_decided = false, static_decided = false;
+  if (rest_->add(smp.v.data(), rest_has_accel_ ? a.data() : nullptr)) {
+    for (const auto& b : rest_->decided()) {
+      if (b.moving) {
+        moving_decided = true;
+        rest_reason_ = b.reason;
+      } else {
+        static_decided = true;
+      }
+    }
+  }
+  if (moving_decided) {
+    static_blocks_ = 0;
+    if (!moving_) {
+      moving_ = true;
+      ++motion_episodes_;
+      NODELET_WARN("gyro_allan analyzer: not at rest (%s): the window restarts once the sensor is still; the last "
+                   "static answer is held", rest_reason_.c_str());
+    }
+    restartWindow();  // every sample so far may hold the motion (the detector decides a block 2 blocks late)
+  } else if (static_decided && moving_) {
+    if (++static_blocks_ >= 2) {
+      moving_ = false;
+      NODELET_INFO("gyro_allan analyzer: at rest again: a new window starts");
+      restartWindow();
+    }
+  }
+  if (moving_) ++moving_samples_;
+  return !moving_;
+}
+
+void AnalyzerNodelet::restartWindow() {
+  for (auto& a : allan_) a->reset();
+  seg_stamps_.clear();
+  segment_pending_ = true;
+  for (int a = 0; a < 3; ++a) {
+    spike_[a].reset(p_.spikes.z > 0 ? new SpikeFilter(p_.spikes) : nullptr);
+    spike_out_[a].clear();
+  }
+  spike_stamps_.clear();
+  spikes_seen_ = 0;
 }
 
 void AnalyzerNodelet::flushSpikes() {
@@ -836,6 +899,28 @@ void AnalyzerNodelet::diagStamps(diagnostic_updater::DiagnosticStatusWrapper& st
   stat.add("nominal rate (Hz)", tau0_ > 0 ? 1.0 / tau0_ : 0.0);
   stat.add("measured rate (Hz)", measured_rate_hz_);
   stat.add("gap threshold: missing samples late by (s)", tau0_ * (p_.gap_factor - 1.0));
+}
+
+void AnalyzerNodelet::diagMotion(diagnostic_updater::DiagnosticStatusWrapper& stat) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!p_.rest_check || source_ == Source::Angle) {
+    stat.summary(diagnostic_msgs::DiagnosticStatus::OK, p_.rest_check ? "not checked (angle input)" : "not checked (~rest_check false)");
+  } else if (moving_) {
+    stat.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "not at rest: %s; holding the last static answer",
+                  rest_reason_.c_str());
+  } else if (!rest_ || rest_->blocks() < 3) {
+    stat.summary(diagnostic_msgs::DiagnosticStatus::OK, "at rest as far as can be told (fewer than 3 blocks yet)");
+  } else {
+    stat.summary(diagnostic_msgs::DiagnosticStatus::OK, "at rest");
+  }
+  stat.add("moving", moving_ ? "yes" : "no");
+  stat.add("reason (last motion)", rest_reason_);
+  stat.add("motion episodes (total)", motion_episodes_);
+  stat.add("samples not analysed while moving (total)", moving_samples_);
+  stat.add("blocks decided", rest_ ? rest_->blocks() : 0);
+  stat.add("moving blocks", rest_ ? rest_->moving_blocks() : 0);
+  stat.add("accelerometer used", rest_has_accel_ ? "yes" : "no");
+  stat.add("block (s)", p_.rest.block_s);
 }
 
 void AnalyzerNodelet::diagValues(diagnostic_updater::DiagnosticStatusWrapper& stat) {

@@ -22,6 +22,7 @@
 
 #include "gyro_allan/allan.hpp"
 #include "gyro_allan/noise_model.hpp"
+#include "gyro_allan/rest.hpp"
 #include "gyro_allan/sliding_allan.hpp"
 #include "gyro_allan/spikes.hpp"
 #include "gyro_allan/timing.hpp"
@@ -57,6 +58,8 @@ struct AnalyzerParams {
   double rms_log10_warn = 0.1, rms_log10_error = 0.3;
   std::array<double, kNumTerms> spec_warn{{0, 0, 0, 0, 0}}, spec_error{{0, 0, 0, 0, 0}};
   double diagnostic_period = 1.0;
+  bool rest_check = true;          ///< ~rest_check: the at-rest detector (rest.hpp) on imu input
+  RestOptions rest;
   SpikeOptions spikes;             ///< ~spike_z: spike threshold in robust sigmas (imu rates; same rule as analyze_bag)
 };
 
@@ -97,16 +100,20 @@ class AnalyzerNodelet : public nodelet::Nodelet {
   void angleCallback(const geometry_msgs::Vector3Stamped::ConstPtr& msg);
   void temperatureCallback(const sensor_msgs::Temperature::ConstPtr& msg);
   void processSample(Source source, const ros::Time& stamp, const std::array<double, 3>& v,
-                     const std::string& frame_id);
+                     const std::string& frame_id, const std::array<double, 3>* accel = nullptr);
   bool isSaturated(const std::array<double, 3>& v);
   /// One sample waiting in the StampGrid's lookahead.
   struct PendingSample {
     ros::Time stamp;
     std::array<double, 3> v;
+    std::array<double, 3> a;       ///< linear acceleration (zeros for angle input)
     bool dropped_before = false;  ///< a sample was dropped (NaN, saturated) just before this one
   };
   void drainGrid();
   void onDecision(const StampDecision& d);
+  /// Feeds the rest detector; false while the sensor moves (the sample is then not analysed).
+  bool checkRest(const PendingSample& smp, bool gap);
+  void restartWindow();
   void flushSpikes();
   void emitSpikeOutput();
   /// Adds one sample to the window (after the grid and the spike filter).
@@ -121,6 +128,7 @@ class AnalyzerNodelet : public nodelet::Nodelet {
   void diagTimer(const ros::TimerEvent&);
   void diagStamps(diagnostic_updater::DiagnosticStatusWrapper& stat);
   void diagValues(diagnostic_updater::DiagnosticStatusWrapper& stat);
+  void diagMotion(diagnostic_updater::DiagnosticStatusWrapper& stat);
   void diagWindow(diagnostic_updater::DiagnosticStatusWrapper& stat);
   void diagFit(diagnostic_updater::DiagnosticStatusWrapper& stat);
   void diagTerm(int term, diagnostic_updater::DiagnosticStatusWrapper& stat);
@@ -146,7 +154,14 @@ class AnalyzerNodelet : public nodelet::Nodelet {
   std::array<std::unique_ptr<SpikeFilter>, 3> spike_;  ///< per axis (imu rates), reset with the window
   std::array<std::vector<double>, 3> spike_out_;      ///< decided samples not yet analysed
   std::deque<ros::Time> spike_stamps_;       ///< stamps of the samples inside the spike filters
-  int64_t spikes_seen_ = 0;                  ///< spikes of the current filters already logged
+  int64_t spikes_seen_ = 0;
+  std::unique_ptr<RestMonitor> rest_;        ///< at-rest detector, created with the first sample at a rate
+  bool rest_has_accel_ = false;
+  std::array<double, 3> last_accel_{{0, 0, 0}};
+  bool moving_ = false;                      ///< the sensor moves: samples are not analysed, the answer is held
+  int static_blocks_ = 0;                    ///< static blocks decided since the last moving one
+  std::string rest_reason_;
+  uint64_t motion_episodes_ = 0, moving_samples_ = 0;                  ///< spikes of the current filters already logged
   double reinit_period_ = 0;                 ///< > 0: a rate change was seen; restart at this period
   int64_t missing_total_ = 0;                ///< grid slots without a sample
   double lag_max_total_ = 0, lag_max_recent_ = 0;  ///< stamp lag behind the grid slot [s]
