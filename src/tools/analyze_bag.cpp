@@ -539,6 +539,7 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
     };
     meta.rest = detectRest(static_cast<int>(n_axes), accel_published, tau0, sizes, sample);
     meta.rest_checked = true;
+    profileStage("rest");
     if (!meta.rest.at_rest) {
       const RestInterval st = meta.rest.longest_static;
       char buf[600];
