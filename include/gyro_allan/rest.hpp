@@ -67,11 +67,12 @@ RestResult detectRest(const std::vector<const std::vector<std::vector<double>>*>
                       const RestOptions& opts = {});
 
 /// The same with the samples fetched one at a time (e.g. from compactly stored bag samples, without a copy of every
-/// axis): `segment_sizes` gap-free segments; sample(k, i, g, a) fills g[0..n_gyro) and, when has_accel, a[0..3) with
-/// sample i of segment k (finite values).
+/// axis): `segment_sizes` gap-free segments; sample(c, k, i) returns channel c (0..n_gyro-1 the gyro axes, then the
+/// three accelerometer axes when has_accel) of sample i of segment k. It is called from several threads at once
+/// (the block statistics of different channels are computed in parallel), so it must not modify shared state; a
+/// non-finite value throws std::invalid_argument. Decisions are those of the streaming RestMonitor on the same data.
 RestResult detectRest(int n_gyro, bool has_accel, double tau0, const std::vector<size_t>& segment_sizes,
-                      const std::function<void(size_t, size_t, double*, double*)>& sample,
-                      const RestOptions& opts = {});
+                      const std::function<double(int, size_t, size_t)>& sample, const RestOptions& opts = {});
 
 /// Convenience for one gap-free segment per axis.
 RestResult detectRestSingle(const std::vector<const std::vector<double>*>& gyro,

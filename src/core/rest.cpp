@@ -5,6 +5,8 @@
 #include <cmath>
 #include <cstdio>
 #include <deque>
+#include <thread>
+#include <exception>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -66,6 +68,44 @@ inline RestBlock toBlock(const BlockDecision& d) {
   b.channel = d.channel;
   b.reason = d.reason;
   return b;
+}
+
+/// Location (clipped mean) and white-noise level of one block of one channel, and its smallest non-zero first
+/// difference (infinity if none): the per-block statistics of the rest detector (rest.hpp). Pure: the batch form
+/// computes them for several channels on parallel threads.
+void blockStatsOf(const double* x, size_t n, double clip_k, std::vector<double>* scratch_p, std::vector<double>* d_p,
+                  double* loc, double* sigma, double* qmin_out) {
+  std::vector<double>& scratch_ = *scratch_p;
+  std::vector<double>& d = *d_p;
+  scratch_.assign(x, x + n);
+  const double med = medianOf(scratch_);
+  // First differences: robust unit, then an RMS within 5 units (quantized sensors: differences mostly 0 and +-LSB).
+  d.resize(n - 1);
+  double qmin = std::numeric_limits<double>::infinity();
+  for (size_t i = 0; i + 1 < n; ++i) {
+    d[i] = x[i + 1] - x[i];
+    const double ad = std::fabs(d[i]);
+    if (ad > 0 && ad < qmin) qmin = ad;
+  }
+  scratch_.assign(d.begin(), d.end());
+  const double dmed = medianOf(scratch_);
+  for (size_t i = 0; i < d.size(); ++i) scratch_[i] = std::fabs(d[i] - dmed);
+  const double mad = kMadToSigma * medianOf(scratch_);
+  double unit = mad;
+  if (std::isfinite(qmin)) unit = std::max(unit, qmin);
+  double s2 = 0;
+  int64_t kept = 0;
+  for (double v : d) {
+    const double e = v - dmed;
+    if (std::fabs(e) <= 5.0 * unit) s2 += e * e, ++kept;
+  }
+  const double sig = kept > 0 ? std::sqrt(s2 / kept / 2.0) : 0.0;
+  double sum = 0;
+  const double lo = med - clip_k * sig, hi = med + clip_k * sig;
+  for (size_t i = 0; i < n; ++i) sum += std::min(hi, std::max(lo, x[i]));
+  *loc = sig > 0 ? sum / n : med;
+  *sigma = sig;
+  *qmin_out = qmin;
 }
 
 class RestEngine {
@@ -164,43 +204,37 @@ class RestEngine {
     }
   }
 
-  // Location and white-noise level of the buffered block of channel c.
+  // Location and white-noise level of the buffered block of channel c (blockStatsOf); keeps the channel's quantum.
   void blockStats(int c, double* loc, double* sigma) {
-    const std::vector<double>& x = buf_[c];
-    const size_t n = x.size();
-    scratch_.assign(x.begin(), x.end());
-    const double med = medianOf(scratch_);
-    // First differences: robust unit, then an RMS within 5 units (quantized sensors: differences mostly 0 and +-LSB).
-    scratch_.resize(n - 1);
-    double qmin = std::numeric_limits<double>::infinity();
-    for (size_t i = 0; i + 1 < n; ++i) {
-      scratch_[i] = x[i + 1] - x[i];
-      const double ad = std::fabs(scratch_[i]);
-      if (ad > 0 && ad < qmin) qmin = ad;
-    }
-    std::vector<double> d(scratch_);
-    const double dmed = medianOf(scratch_);
-    for (size_t i = 0; i < d.size(); ++i) scratch_[i] = std::fabs(d[i] - dmed);
-    const double mad = kMadToSigma * medianOf(scratch_);
-    double unit = mad;
-    if (std::isfinite(qmin)) {
-      unit = std::max(unit, qmin);
-      quantum_[c] = std::min(quantum_[c], qmin);
-    }
-    double s2 = 0;
-    int64_t kept = 0;
-    for (double v : d) {
-      const double e = v - dmed;
-      if (std::fabs(e) <= 5.0 * unit) s2 += e * e, ++kept;
-    }
-    const double sig = kept > 0 ? std::sqrt(s2 / kept / 2.0) : 0.0;
-    double sum = 0;
-    const double lo = med - opts_.clip_k * sig, hi = med + opts_.clip_k * sig;
-    for (double v : x) sum += std::min(hi, std::max(lo, v));
-    *loc = sig > 0 ? sum / n : med;
-    *sigma = sig;
+    double qmin;
+    blockStatsOf(buf_[c].data(), buf_[c].size(), opts_.clip_k, &scratch_, &dbuf_, loc, sigma, &qmin);
+    quantum_[c] = std::min(quantum_[c], qmin);
   }
 
+  // ---- batch form (detectRest): blocks with precomputed statistics
+ public:
+  /// Batch form with the block statistics computed outside (blockStatsOf, possibly on other threads): one block of
+  /// n samples, as closeBlock would close it after n add() calls.
+  int addBlock(int64_t n, const double* loc, const double* sigma, const double* qmin) {
+    recent_.clear();
+    count_ += n;
+    Block b;
+    b.n = n;
+    b.end = count_;
+    b.begin = count_ - n;
+    b.loc.assign(loc, loc + n_ch_);
+    b.sigma.assign(sigma, sigma + n_ch_);
+    for (int c = 0; c < n_ch_; ++c) quantum_[c] = std::min(quantum_[c], qmin[c]);
+    return finishBlock(std::move(b));
+  }
+  /// Batch form: the end of a segment whose last `tail` samples (fewer than min_block_samples) formed no block.
+  int endSegment(int64_t tail) {
+    count_ += tail;
+    for (int c = 0; c < n_ch_; ++c) buf_[c].assign(static_cast<size_t>(tail), 0.0);  // only their number matters
+    return newSegment();
+  }
+
+ private:
   int closeBlock() {
     Block b;
     b.n = static_cast<int64_t>(buf_[0].size());
@@ -210,6 +244,10 @@ class RestEngine {
     b.sigma.resize(n_ch_);
     for (int c = 0; c < n_ch_; ++c) blockStats(c, &b.loc[c], &b.sigma[c]);
     for (auto& v : buf_) v.clear();
+    return finishBlock(std::move(b));
+  }
+
+  int finishBlock(Block b) {
     // (c) rate magnitude
     double w2 = 0;
     for (int c = 0; c < n_gyro_; ++c) w2 += b.loc[c] * b.loc[c];
@@ -310,7 +348,7 @@ class RestEngine {
   std::vector<std::vector<double>> buf_;
   std::vector<std::deque<double>> win_;
   std::vector<double> quantum_;
-  std::vector<double> scratch_;
+  std::vector<double> scratch_, dbuf_;
   std::deque<Block> pending_;  // blocks of the current segment still needed (at most 4)
   BlockDecision last_;
   int64_t count_ = 0, n_decided_ = 0, n_moving_ = 0;
@@ -373,30 +411,94 @@ RestResult detectRest(const std::vector<const std::vector<std::vector<double>>*>
         if (v != 0) has_accel = true;  // NaN also counts as published (and is refused below)
   std::vector<size_t> sizes;
   for (const auto& s : ref) sizes.push_back(s.size());
-  return detectRest(static_cast<int>(gyro.size()), has_accel, tau0, sizes,
-                    [&](size_t k, size_t i, double* g, double* a) {
-                      for (size_t c = 0; c < gyro.size(); ++c) g[c] = (*gyro[c])[k][i];
-                      if (has_accel)
-                        for (int c = 0; c < 3; ++c) a[c] = (*accel[c])[k][i];
+  for (size_t c = 0; c < gyro.size() + (has_accel ? 3 : 0); ++c) {  // the engine's own refusal of NaN/Inf
+    const auto& axis = c < gyro.size() ? *gyro[c] : *accel[c - gyro.size()];
+    for (const auto& seg : axis)
+      for (size_t i = 0; i < seg.size(); ++i)
+        if (!std::isfinite(seg[i]))
+          bad(std::string(c < gyro.size() ? "gyro " : "accel ") + xyz[c < gyro.size() ? c : c - gyro.size()] +
+              " sample " + std::to_string(i) + " is not finite");
+  }
+  const size_t ng = gyro.size();
+  return detectRest(static_cast<int>(ng), has_accel, tau0, sizes,
+                    [&](int c, size_t k, size_t i) {
+                      const size_t cc = static_cast<size_t>(c);
+                      return cc < ng ? (*gyro[cc])[k][i] : (*accel[cc - ng])[k][i];
                     },
                     opts);
 }
 
 RestResult detectRest(int n_gyro, bool has_accel, double tau0, const std::vector<size_t>& segment_sizes,
-                      const std::function<void(size_t, size_t, double*, double*)>& sample, const RestOptions& opts) {
+                      const std::function<double(int, size_t, size_t)>& sample, const RestOptions& opts) {
   int64_t total = 0;
   for (size_t n : segment_sizes) total += static_cast<int64_t>(n);
   if (total == 0) throw std::invalid_argument("detectRest: no samples");
   detail::RestEngine eng(tau0, n_gyro, has_accel, opts);
   std::vector<detail::BlockDecision> log;
   eng.log_ = &log;
-  double g[3], a[3];
+  const int n_ch = n_gyro + (has_accel ? 3 : 0);
+  // The engine's block layout: per segment, full blocks, then a tail that is a block of its own when it has at least
+  // min_block_samples samples (else it joins the last block, or stays undecided).
+  struct BlockRef {
+    size_t seg, begin, n;
+  };
+  const size_t bn = static_cast<size_t>(eng.blockSamples());
+  std::vector<BlockRef> blocks;
+  std::vector<int64_t> short_tail(segment_sizes.size(), 0);
   for (size_t k = 0; k < segment_sizes.size(); ++k) {
-    for (size_t i = 0; i < segment_sizes[k]; ++i) {
-      sample(k, i, g, a);
-      eng.add(g, has_accel ? a : nullptr);
-    }
-    eng.newSegment();
+    size_t pos = 0;
+    for (; segment_sizes[k] - pos >= bn; pos += bn) blocks.push_back({k, pos, bn});
+    const size_t tail = segment_sizes[k] - pos;
+    if (static_cast<int64_t>(tail) >= opts.min_block_samples) blocks.push_back({k, pos, tail});
+    else short_tail[k] = static_cast<int64_t>(tail);
+  }
+  // Phase 1: the block statistics (the costly part: three exact medians per block and channel), channels spread
+  // over threads; blockStatsOf is the streaming engine's own function, so the statistics are identical.
+  const size_t nb = blocks.size(), nc = static_cast<size_t>(n_ch);
+  std::vector<double> loc(nb * nc), sig(nb * nc), qmin(nb * nc);
+  const char* xyz = "xyz";
+  auto work = [&](int first, int step) {
+    std::vector<double> x, scratch, d;
+    for (int c = first; c < n_ch; c += step)
+      for (size_t b = 0; b < nb; ++b) {
+        const BlockRef& r = blocks[b];
+        x.resize(r.n);
+        for (size_t i = 0; i < r.n; ++i) {
+          x[i] = sample(c, r.seg, r.begin + i);
+          if (!std::isfinite(x[i]))
+            throw std::invalid_argument(std::string("rest detector: ") + (c < n_gyro ? "gyro " : "accel ") +
+                                        xyz[c < n_gyro ? c : c - n_gyro] + " sample " + std::to_string(r.begin + i) +
+                                        " of segment " + std::to_string(r.seg) + " is not finite");
+        }
+        detail::blockStatsOf(x.data(), r.n, opts.clip_k, &scratch, &d, &loc[b * nc + static_cast<size_t>(c)],
+                     &sig[b * nc + static_cast<size_t>(c)], &qmin[b * nc + static_cast<size_t>(c)]);
+      }
+  };
+  const int n_threads = std::max(1, std::min<int>(n_ch, static_cast<int>(std::thread::hardware_concurrency())));
+  std::vector<std::exception_ptr> errors(static_cast<size_t>(n_threads));
+  std::vector<std::thread> pool;
+  for (int t = 1; t < n_threads; ++t)
+    pool.emplace_back([&, t] {
+      try {
+        work(t, n_threads);
+      } catch (...) {
+        errors[static_cast<size_t>(t)] = std::current_exception();
+      }
+    });
+  try {
+    work(0, n_threads);
+  } catch (...) {
+    errors[0] = std::current_exception();
+  }
+  for (auto& th : pool) th.join();
+  for (const auto& e : errors)
+    if (e) std::rethrow_exception(e);
+  // Phase 2: the engine's decisions, block by block in order.
+  size_t bi = 0;
+  for (size_t k = 0; k < segment_sizes.size(); ++k) {
+    for (; bi < nb && blocks[bi].seg == k; ++bi)
+      eng.addBlock(static_cast<int64_t>(blocks[bi].n), &loc[bi * nc], &sig[bi * nc], &qmin[bi * nc]);
+    eng.endSegment(short_tail[k]);
   }
 
   RestResult r;

@@ -522,20 +522,17 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
     std::vector<size_t> sizes;
     for (const auto& seg : ss.segments) sizes.push_back(seg.size());
     const size_t n_axes = compact ? 3 : names.size();
-    double last_a[3] = {0, 0, 0};
-    auto sample = [&](size_t k, size_t i, double* g, double* a) {
+    // Channel c of sample i of segment k, read-only (called from several threads): gyro axes, then the
+    // accelerometer's, whose NaN samples (the gyro's were dropped by the sanitation) take the last finite value.
+    auto sample = [&](int c, size_t k, size_t i) -> double {
       const size_t idx = ss.segments[k].begin + i;
-      if (compact) {
-        const size_t j = ss.kept.empty() ? idx : ss.kept[idx];
-        for (size_t c = 0; c < 3; ++c) g[c] = gyro_c[c][j];
-        if (accel_published)
-          for (size_t c = 0; c < 3; ++c) {
-            const double x = accel[c][j];
-            a[c] = std::isfinite(x) ? (last_a[c] = x) : last_a[c];  // a NaN accel sample: hold the last one
-          }
-      } else {
-        for (size_t c = 0; c < n_axes; ++c) g[c] = ss.v[c][idx];
-      }
+      if (!compact) return ss.v[static_cast<size_t>(c)][idx];
+      const size_t j = ss.kept.empty() ? idx : ss.kept[idx];
+      if (c < 3) return gyro_c[static_cast<size_t>(c)][j];
+      const CompactSeries& a = accel[static_cast<size_t>(c - 3)];
+      for (size_t q = j + 1; q-- > 0;)
+        if (std::isfinite(a[q])) return a[q];
+      return 0.0;
     };
     meta.rest = detectRest(static_cast<int>(n_axes), accel_published, tau0, sizes, sample);
     meta.rest_checked = true;
