@@ -1,4 +1,5 @@
 // Raw-sample diagnostics for the model check: Welch PSD, peaks, autocovariance, mean shifts, regression, outliers.
+#include "block_ranges.hpp"
 #include "gyro_allan/spectral.hpp"
 
 #include <algorithm>
@@ -387,17 +388,8 @@ Outliers detectOutliers(const std::vector<double>& x, double tau0, double z_min,
   // three-block range is at most `limit` is skipped whole; the rest get the exact median sample by sample.
   const int64_t B = std::max<int64_t>(16, half_window);
   const int64_t nb = (n + B - 1) / B;
-  std::vector<double> bmin(static_cast<size_t>(nb)), bmax(static_cast<size_t>(nb));
-  for (int64_t b = 0; b < nb; ++b) {
-    const int64_t lo = b * B, hi = std::min(n, lo + B);
-    double mn = x[static_cast<size_t>(lo)], mx = mn;
-    for (int64_t i = lo + 1; i < hi; ++i) {
-      mn = std::min(mn, x[static_cast<size_t>(i)]);
-      mx = std::max(mx, x[static_cast<size_t>(i)]);
-    }
-    bmin[static_cast<size_t>(b)] = mn;
-    bmax[static_cast<size_t>(b)] = mx;
-  }
+  std::vector<double> bmin, bmax;
+  detail::blockMinMax(x, B, &bmin, &bmax);
   for (int64_t b = 0; b < nb; ++b) {
     double mn = bmin[static_cast<size_t>(b)], mx = bmax[static_cast<size_t>(b)];
     if (b > 0) mn = std::min(mn, bmin[static_cast<size_t>(b - 1)]), mx = std::max(mx, bmax[static_cast<size_t>(b - 1)]);

@@ -1,5 +1,6 @@
 // Spike detection and removal in gyro rate samples: one decision rule (candidate test, run classification, robust
 // sigma) used by both the batch removeSpikes and the streaming SpikeFilter. Rule: include/gyro_allan/spikes.hpp.
+#include "block_ranges.hpp"
 #include "gyro_allan/spikes.hpp"
 
 #include <algorithm>
@@ -284,17 +285,8 @@ SpikeReport detectSpikes(const std::vector<double>& x, const SpikeOptions& o, st
   // them); the rest are tested sample by sample (isCandidate repeats the range test per window: same answer).
   const int64_t B = std::max<int64_t>(16, h);
   const int64_t nb = (n + B - 1) / B;
-  std::vector<double> bmin(static_cast<size_t>(nb)), bmax(static_cast<size_t>(nb));
-  for (int64_t b = 0; b < nb; ++b) {
-    const int64_t lo = b * B, hi = std::min(n, lo + B);
-    double mn = x[static_cast<size_t>(lo)], mx = mn;
-    for (int64_t i = lo + 1; i < hi; ++i) {
-      mn = std::min(mn, x[static_cast<size_t>(i)]);
-      mx = std::max(mx, x[static_cast<size_t>(i)]);
-    }
-    bmin[static_cast<size_t>(b)] = mn;
-    bmax[static_cast<size_t>(b)] = mx;
-  }
+  std::vector<double> bmin, bmax;
+  detail::blockMinMax(x, B, &bmin, &bmax);
   std::vector<int64_t> cand;
   for (int64_t b = 0; b < nb; ++b) {
     double mn = bmin[static_cast<size_t>(b)], mx = bmax[static_cast<size_t>(b)];
