@@ -57,7 +57,9 @@ TEST(NoiseModel, WeakTermIsDroppedWithBoundCoveringIt) {
   const FitResult f = fitNoiseModel(modelCurve(truth, 0.0025, 1440001, 1000.0));
   ASSERT_TRUE(f.ok);
   for (int t = 0; t < kNumTerms; ++t)
-    if (!f.terms[t].supported) EXPECT_LE(truth[t], 2 * f.terms[t].sigma) << noiseTermKey(t);
+    if (!f.terms[t].supported) {
+      EXPECT_LE(truth[t], 2 * f.terms[t].sigma) << noiseTermKey(t);
+    }
   EXPECT_NEAR(f.terms[kAngleRandomWalk].value / 2e-4, 1.0, 0.01);
 }
 

@@ -154,7 +154,9 @@ TEST(AnalyzeAxis, DegenerateButFiniteDataNeverGivesNonFiniteSupportedTerms) {
     try {
       const AxisAnalysis a = analyzeAxis("x", cases[c], 0.01, defaultOptions());
       for (const auto& term : a.fit.terms)
-        if (term.supported) EXPECT_TRUE(std::isfinite(term.value) && std::isfinite(term.sigma)) << "case " << c;
+        if (term.supported) {
+          EXPECT_TRUE(std::isfinite(term.value) && std::isfinite(term.sigma)) << "case " << c;
+        }
       for (const auto& p : a.oadev.points) EXPECT_TRUE(p.tau > 0 && !std::isnan(p.dev)) << "case " << c;
     } catch (const std::invalid_argument& e) {
       SUCCEED() << "case " << c << ": " << e.what();
