@@ -318,7 +318,8 @@ TEST(NodeletConvergence, ConvergesReactsAndRecovers) {
   expectConverged(h.lastReport(), "after a stamp glitch");
 
   // G. The IMU is picked up and waved (0.5 rad/s): "motion" goes to WARN "not at rest", no new answer is published
-  // while it moves (the last static one is held), and after it is put down a new window converges again.
+  // while it moves (the last static one is held); its samples are left out, so after it is put down the window
+  // still holds the static data from before (split there into segments) and the answer is converged.
   h.clearMax();
   EXPECT_EQ(h.level("motion"), OK) << h.message("motion");
   h.moving(true);
@@ -330,6 +331,10 @@ TEST(NodeletConvergence, ConvergesReactsAndRecovers) {
   EXPECT_EQ(h.reports(), during) << "an answer was published while the sensor moved";
   EXPECT_EQ(h.level("motion"), WARN) << h.message("motion");
   h.moving(false);
+  EXPECT_TRUE(h.publishUntil(15.0, [&] { return h.reports() > during; })) << "no answer after the motion";
+  // The window kept its static data from before the motion (a restarted window would hold a few thousand samples).
+  EXPECT_GE(h.lastReport().samples, 10000) << "the window lost its static data";
+  EXPECT_GE(h.lastReport().segments, 2) << "the motion must split the window";
   EXPECT_TRUE(h.publishUntil(15.0, [&] { return h.level("motion") == OK && h.reports() >= during + 3; }))
       << "after motion: motion '" << h.message("motion") << "', reports " << h.reports() - during;
   expectConverged(h.lastReport(), "after motion");

@@ -309,6 +309,9 @@ void AnalyzerNodelet::initAccumulators(double tau0) {
   spikes_seen_ = 0;
   segment_pending_ = true;
   rest_.reset();  // created with the first sample at this rate
+  rest_queue_.clear();  // decided at the old rate: they leave with the old window
+  rest_blocks_.clear();
+  rest_gap_pending_ = false;
   for (const auto& s : grid_values_) grid_->push(s.stamp.toSec());
   new_timeline_ = true;
   reinit_period_ = 0;
@@ -489,10 +492,17 @@ void AnalyzerNodelet::onDecision(const StampDecision& d) {
   const bool gap = d.missing > 0 || new_timeline_;
   new_timeline_ = false;
   if (checkRate(smp.stamp, d.index)) return;  // the caller restarts the accumulators at the new rate
-  if (source_ == Source::Imu && p_.rest_check && !checkRest(smp, gap)) return;  // moving: not analysed
+  if (source_ == Source::Imu && p_.rest_check) {
+    restStage(smp, gap);  // forwards the samples once their block is decided, moving ones dropped
+    return;
+  }
+  forward(smp.stamp, smp.v, gap);
+}
+
+void AnalyzerNodelet::forward(const ros::Time& stamp, const std::array<double, 3>& v, bool gap) {
   if (source_ != Source::Imu || !spike_[0]) {  // angles, or ~spike_z 0: no spike filter
     if (gap) segment_pending_ = true;
-    analyse(smp.stamp, smp.v);
+    analyse(stamp, v);
     return;
   }
   // Rates pass the spike filters (the same rule as analyze_bag), which hold back delay() samples; at a gap the
@@ -501,67 +511,75 @@ void AnalyzerNodelet::onDecision(const StampDecision& d) {
     flushSpikes();
     segment_pending_ = true;
   }
-  spike_stamps_.push_back(smp.stamp);
-  for (int a = 0; a < 3; ++a) spike_[a]->push(smp.v[a], &spike_out_[a]);
+  spike_stamps_.push_back(stamp);
+  for (int a = 0; a < 3; ++a) spike_[a]->push(v[a], &spike_out_[a]);
   emitSpikeOutput();
 }
 
-bool AnalyzerNodelet::checkRest(const PendingSample& smp, bool gap) {
-  // The same rest detector as analyze_bag (rest.hpp), on the gyro and, when it publishes, the accelerometer.
+void AnalyzerNodelet::restStage(const PendingSample& smp, bool gap) {
+  // The same rest detector as analyze_bag (rest.hpp), on the gyro and, when it publishes, the accelerometer. It
+  // decides each 1 s block two blocks later, so samples wait in rest_queue_ until their block is decided: static
+  // ones go on to the window, moving ones are dropped (the window keeps its static data on both sides of a motion,
+  // split into segments there).
   if (!rest_) {
     const bool has_accel = std::isfinite(smp.a[0]) && std::isfinite(smp.a[1]) && std::isfinite(smp.a[2]) &&
                            (smp.a[0] != 0 || smp.a[1] != 0 || smp.a[2] != 0);
     rest_.reset(new RestMonitor(tau0_, 3, has_accel, p_.rest));
     rest_has_accel_ = has_accel;
     last_accel_ = {{0, 0, 0}};
+    rest_count_ = 0;
+    rest_blocks_.clear();
+    rest_queue_.clear();
+    decided_end_ = 0;
   }
-  if (gap) rest_->newSegment();
+  if (gap) {
+    if (rest_->newSegment()) takeRestDecisions();
+    releaseRest(true);  // the segment is over: every queued sample is decided (or in no block)
+  }
   std::array<double, 3> a = smp.a;
   for (int k = 0; k < 3; ++k) {
     if (std::isfinite(a[k])) last_accel_[k] = a[k];
     else a[k] = last_accel_[k];  // a NaN accelerometer sample: hold the last one
   }
-  bool moving_decided = false, static_decided = false;
-  if (rest_->add(smp.v.data(), rest_has_accel_ ? a.data() : nullptr)) {
-    for (const auto& b : rest_->decided()) {
-      if (b.moving) {
-        moving_decided = true;
-        rest_reason_ = b.reason;
-      } else {
-        static_decided = true;
-      }
-    }
-  }
-  if (moving_decided) {
-    static_blocks_ = 0;
-    if (!moving_) {
-      moving_ = true;
-      ++motion_episodes_;
-      NODELET_WARN("gyro_allan analyzer: not at rest (%s): the window restarts once the sensor is still; the last "
-                   "static answer is held", rest_reason_.c_str());
-    }
-    restartWindow();  // every sample so far may hold the motion (the detector decides a block 2 blocks late)
-  } else if (static_decided && moving_) {
-    if (++static_blocks_ >= 2) {
-      moving_ = false;
-      NODELET_INFO("gyro_allan analyzer: at rest again: a new window starts");
-      restartWindow();
-    }
-  }
-  if (moving_) ++moving_samples_;
-  return !moving_;
+  rest_queue_.push_back({rest_count_++, smp.stamp, smp.v, gap});
+  if (rest_->add(smp.v.data(), rest_has_accel_ ? a.data() : nullptr)) takeRestDecisions();
+  releaseRest(false);
 }
 
-void AnalyzerNodelet::restartWindow() {
-  for (auto& a : allan_) a->reset();
-  seg_stamps_.clear();
-  segment_pending_ = true;
-  for (int a = 0; a < 3; ++a) {
-    spike_[a].reset(p_.spikes.z > 0 ? new SpikeFilter(p_.spikes) : nullptr);
-    spike_out_[a].clear();
+void AnalyzerNodelet::takeRestDecisions() {
+  for (const auto& b : rest_->decided()) {
+    rest_blocks_.push_back(b);
+    decided_end_ = std::max(decided_end_, b.samples.end);
+    if (b.moving) {
+      rest_reason_ = b.reason;
+      static_blocks_ = 0;
+      if (!moving_) {
+        moving_ = true;
+        ++motion_episodes_;
+        NODELET_WARN("gyro_allan analyzer: not at rest (%s): its samples are left out of the window and the last "
+                     "static answer is held", rest_reason_.c_str());
+      }
+    } else if (moving_ && ++static_blocks_ >= 2) {
+      moving_ = false;
+      NODELET_INFO("gyro_allan analyzer: at rest again");
+    }
   }
-  spike_stamps_.clear();
-  spikes_seen_ = 0;
+}
+
+void AnalyzerNodelet::releaseRest(bool all) {
+  while (!rest_queue_.empty() && (all || rest_queue_.front().m < decided_end_)) {
+    const RestQueued q = rest_queue_.front();
+    rest_queue_.pop_front();
+    while (!rest_blocks_.empty() && rest_blocks_.front().samples.end <= q.m) rest_blocks_.pop_front();
+    const bool in_block = !rest_blocks_.empty() && rest_blocks_.front().samples.begin <= q.m;
+    if (!in_block || rest_blocks_.front().moving) {  // moving, or a segment too short to judge
+      ++moving_samples_;
+      rest_gap_pending_ = true;
+      continue;
+    }
+    forward(q.stamp, q.v, q.gap || rest_gap_pending_);
+    rest_gap_pending_ = false;
+  }
 }
 
 void AnalyzerNodelet::flushSpikes() {
@@ -916,7 +934,7 @@ void AnalyzerNodelet::diagMotion(diagnostic_updater::DiagnosticStatusWrapper& st
   stat.add("moving", moving_ ? "yes" : "no");
   stat.add("reason (last motion)", rest_reason_);
   stat.add("motion episodes (total)", motion_episodes_);
-  stat.add("samples not analysed while moving (total)", moving_samples_);
+  stat.add("samples left out: moving, or a segment too short to judge (total)", moving_samples_);
   stat.add("blocks decided", rest_ ? rest_->blocks() : 0);
   stat.add("moving blocks", rest_ ? rest_->moving_blocks() : 0);
   stat.add("accelerometer used", rest_has_accel_ ? "yes" : "no");

@@ -111,9 +111,19 @@ class AnalyzerNodelet : public nodelet::Nodelet {
   };
   void drainGrid();
   void onDecision(const StampDecision& d);
-  /// Feeds the rest detector; false while the sensor moves (the sample is then not analysed).
-  bool checkRest(const PendingSample& smp, bool gap);
-  void restartWindow();
+  /// One sample waiting for its rest-detector block to be decided.
+  struct RestQueued {
+    int64_t m;          ///< index among the samples given to the detector
+    ros::Time stamp;
+    std::array<double, 3> v;
+    bool gap;
+  };
+  /// Feeds the rest detector and passes decided static samples on (forward); moving ones are dropped.
+  void restStage(const PendingSample& smp, bool gap);
+  void takeRestDecisions();
+  void releaseRest(bool all);
+  /// Spike filter (imu rates) and window for one kept sample; gap: it starts a segment.
+  void forward(const ros::Time& stamp, const std::array<double, 3>& v, bool gap);
   void flushSpikes();
   void emitSpikeOutput();
   /// Adds one sample to the window (after the grid and the spike filter).
@@ -158,7 +168,11 @@ class AnalyzerNodelet : public nodelet::Nodelet {
   std::unique_ptr<RestMonitor> rest_;        ///< at-rest detector, created with the first sample at a rate
   bool rest_has_accel_ = false;
   std::array<double, 3> last_accel_{{0, 0, 0}};
-  bool moving_ = false;                      ///< the sensor moves: samples are not analysed, the answer is held
+  std::deque<RestQueued> rest_queue_;        ///< samples waiting for their block's decision
+  std::deque<RestBlock> rest_blocks_;        ///< decided blocks not yet passed by the queue
+  int64_t rest_count_ = 0, decided_end_ = 0;
+  bool rest_gap_pending_ = false;            ///< samples were dropped as moving: the next one starts a segment
+  bool moving_ = false;                      ///< the latest decided block moves: nothing new is analysed
   int static_blocks_ = 0;                    ///< static blocks decided since the last moving one
   std::string rest_reason_;
   uint64_t motion_episodes_ = 0, moving_samples_ = 0;                  ///< spikes of the current filters already logged
