@@ -102,6 +102,8 @@ class SpikeFilter {
   /// Totals over all segments so far (kurtosis from running moments of input and output; indices count every
   /// sample pushed).
   SpikeReport report() const;
+  /// Spike samples found so far (report().count without building the report: cheap per sample).
+  int64_t count() const { return total_.count + seg_.count; }
   double sigma() const { return scale_; }  ///< current robust sigma (0 before the first estimate)
 
  private:
@@ -109,6 +111,8 @@ class SpikeFilter {
   void computeCandidates(bool ended);
   bool emitOne(bool ended, double* out);
   void compact();
+  /// The current segment's report, closed (sizes, threshold, moments) as at its end.
+  SpikeReport closedSegment() const;
   SpikeOptions o_;
   std::vector<double> buf_;      // samples of the current segment from absolute index base_
   std::vector<char> cand_;       // candidate flags, same indexing (computed up to cand_hi_)

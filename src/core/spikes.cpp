@@ -478,17 +478,7 @@ void SpikeFilter::flush(std::vector<double>* out) {
     double y;
     while (emitOne(true, &y))
       if (out) out->push_back(y);
-    // Close the segment's report.
-    seg_.samples = n_;
-    seg_.segments = 1;
-    seg_.longest_segment = n_;
-    seg_.z = o_.z;
-    seg_.robust_sigma = scale_;
-    seg_.threshold = o_.z * scale_;
-    seg_.removed = seg_.count > 0;
-    momentsFromSums(n_, in_s1_, in_s2_, in_s3_, in_s4_, &seg_.std_before, &seg_.excess_kurtosis_before);
-    momentsFromSums(out_n_, out_s1_, out_s2_, out_s3_, out_s4_, &seg_.std_after, &seg_.excess_kurtosis_after);
-    total_.merge(seg_, offset_, o_.max_listed);
+    total_.merge(closedSegment(), offset_, o_.max_listed);
     offset_ += n_;
   }
   // A new segment: sigma kept only when fixed.
@@ -509,21 +499,23 @@ void SpikeFilter::flush(std::vector<double>* out) {
   out_n_ = 0;
 }
 
+SpikeReport SpikeFilter::closedSegment() const {
+  SpikeReport s = seg_;
+  s.samples = n_;
+  s.segments = 1;
+  s.longest_segment = n_;
+  s.z = o_.z;
+  s.robust_sigma = scale_;
+  s.threshold = o_.z * scale_;
+  s.removed = s.count > 0;
+  momentsFromSums(n_, in_s1_, in_s2_, in_s3_, in_s4_, &s.std_before, &s.excess_kurtosis_before);
+  momentsFromSums(out_n_, out_s1_, out_s2_, out_s3_, out_s4_, &s.std_after, &s.excess_kurtosis_after);
+  return s;
+}
+
 SpikeReport SpikeFilter::report() const {
   SpikeReport r = total_;
-  if (n_ > 0) {
-    SpikeReport s = seg_;
-    s.samples = n_;
-    s.segments = 1;
-    s.longest_segment = n_;
-    s.z = o_.z;
-    s.robust_sigma = scale_;
-    s.threshold = o_.z * scale_;
-    s.removed = s.count > 0;
-    momentsFromSums(n_, in_s1_, in_s2_, in_s3_, in_s4_, &s.std_before, &s.excess_kurtosis_before);
-    momentsFromSums(out_n_, out_s1_, out_s2_, out_s3_, out_s4_, &s.std_after, &s.excess_kurtosis_after);
-    r.merge(s, offset_, o_.max_listed);
-  }
+  if (n_ > 0) r.merge(closedSegment(), offset_, o_.max_listed);
   return r;
 }
 

@@ -597,7 +597,7 @@ void AnalyzerNodelet::emitSpikeOutput() {
   }
   for (auto& o : spike_out_) o.erase(o.begin(), o.begin() + static_cast<long>(n));
   int64_t count = 0;
-  for (const auto& f : spike_) count += f->report().count;
+  for (const auto& f : spike_) count += f->count();  // per sample: no report built
   const ros::Time now = ros::Time::now();
   for (; spikes_seen_ < count; ++spikes_seen_) spikes_.add(now);
 }
