@@ -180,7 +180,9 @@ std::vector<double> streamed(const std::vector<double>& x, const SpikeOptions& o
       ++next_cut;
     }
     f.push(x[i], &out);
-    if (i % 997 == 0) EXPECT_EQ(f.count(), f.report().count);  // the cheap count the nodelet reads per sample
+    if (i % 997 == 0) {
+      EXPECT_EQ(f.count(), f.report().count);  // the cheap count the nodelet reads per sample
+    }
   }
   f.flush(&out);
   EXPECT_EQ(f.count(), f.report().count);
