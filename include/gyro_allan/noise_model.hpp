@@ -22,12 +22,18 @@ const char* noiseTermUnit(int term);
 /// Allan-variance basis of each term per unit coefficient squared: 3/tau^2, 1/tau, 2ln2/pi, tau/3, tau^2/2.
 double noiseTermBasis(int term, double tau);
 
-/// A coefficient with its 1-sigma uncertainty. supported == false: the data does not support the term; value is 0
+/// A coefficient with its uncertainty. supported == false: the data does not support the term; value is 0
 /// and sigma is the 1-sigma upper bound of the coefficient (what it could be and still fit).
+/// Intervals (same units as value): a supported term has two-sided intervals [lo68, hi68] (68.3 %) and
+/// [lo95, hi95] (95 %); an unsupported one has lo68 = lo95 = 0 and one-sided upper bounds hi68 (68.3 %) and hi95
+/// (95 %). The coefficient is the square root of its AVAR weight c; intervals are taken on c (where the estimate is
+/// near normal) and mapped through the square root, so they are asymmetric.
 struct Coefficient {
   double value = 0;
   double sigma = 0;
   bool supported = false;
+  double lo68 = 0, hi68 = 0;
+  double lo95 = 0, hi95 = 0;
 };
 
 /// An additional Allan-variance term c * basis(tau), c >= 0 fitted jointly with the IEEE terms (used by the model
