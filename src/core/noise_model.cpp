@@ -305,6 +305,16 @@ FitResult fitNoiseModel(const DeviationCurve& curve, const FitOptions& options, 
       co.value = 0;
       co.sigma = std::sqrt(std::max(0.0, cval) + std::sqrt(cvar * inflate));  // 1-sigma upper bound
     }
+    const double sc = std::sqrt(std::max(0.0, cvar * inflate));
+    if (supported) {
+      co.lo68 = std::sqrt(std::max(0.0, cval - sc));
+      co.hi68 = std::sqrt(cval + sc);
+      co.lo95 = std::sqrt(std::max(0.0, cval - 1.959964 * sc));
+      co.hi95 = std::sqrt(cval + 1.959964 * sc);
+    } else {
+      co.hi68 = std::sqrt(std::max(0.0, std::max(0.0, cval) + 0.4758 * sc));  // one-sided 68.3 %: z = 0.4758
+      co.hi95 = std::sqrt(std::max(0.0, std::max(0.0, cval) + 1.644854 * sc));
+    }
     const int term = all_cols[static_cast<size_t>(col)].term;
     if (term < kNumTerms) r.terms[static_cast<size_t>(term)] = co;
     else {
