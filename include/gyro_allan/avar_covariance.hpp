@@ -7,7 +7,7 @@
 // sigma^2(tau) exactly). The second difference d_k(m) = x[k+2m] - 2 x[k+m] + x[k] behind each AVAR term is a linear
 // combination with zero-sum, zero-first-moment weights, so Cov(d_k(m), d_l(m')) follows from that function alone,
 // and for Gaussian d, Cov(d^2, d'^2) = 2 Cov(d, d')^2 (+ 4 mu mu' Cov(d, d') with the rate ramp's mean
-// mu = R tau^2). Summing over the pairs of overlapping terms gives Cov(avar(m), avar(m')) exactly for one gap-free
+// mu = R tau^2; uniform quantization error adds its fourth cumulant). Summing over the pairs of overlapping terms gives Cov(avar(m), avar(m')) exactly for one gap-free
 // record (pooled segments are treated as one record with the pooled term counts). The sum over lags is exact near
 // the breakpoints and a midpoint/Gauss-Legendre integral between them (relative error < 1e-3).
 #pragma once
@@ -29,7 +29,13 @@ struct AvarCovarianceBasis {
   double tau0 = 0;
   std::array<std::array<Eigen::MatrixXd, 4>, 4> G;  ///< G[p][q] for p <= q (stochastic terms Q, N, B, K)
   std::array<Eigen::MatrixXd, 4> H;                 ///< rate-ramp cross terms
+  /// Quantization's fourth-cumulant term per unit Q^4 and unit excess kurtosis: quantization error is not Gaussian
+  /// (uniform: excess kurtosis -6/5), and Cov(d^2, d'^2) gains kappa4 * sum of w^2 w'^2 over shared samples.
+  Eigen::MatrixXd K4;
 };
+
+/// Excess kurtosis of uniform quantization error (pulse-counter rounding, subtractive dither).
+constexpr double kUniformExcessKurtosis = -1.2;
 
 /// Builds the basis for points at averaging factors m[i] (tau = m tau0) with n_terms[i] overlapping terms each.
 /// Throws std::invalid_argument on empty or inconsistent input.
@@ -37,7 +43,9 @@ AvarCovarianceBasis avarCovarianceBasis(const std::vector<int64_t>& m, const std
                                         double tau0);
 
 /// Covariance matrix of the AVAR estimates at the basis points for squared coefficients s (SI: rad^2, rad^2/s,
-/// rad^2/s^2, rad^2/s^3, rad^2/s^4). Entries for a term with s_p <= 0 vanish.
-Eigen::MatrixXd avarCovariance(const AvarCovarianceBasis& basis, const std::array<double, 5>& s);
+/// rad^2/s^2, rad^2/s^3, rad^2/s^4). Entries for a term with s_p <= 0 vanish. The quantization error's excess
+/// kurtosis defaults to the uniform distribution's; 0 treats it as Gaussian.
+Eigen::MatrixXd avarCovariance(const AvarCovarianceBasis& basis, const std::array<double, 5>& s,
+                               double quantization_excess_kurtosis = kUniformExcessKurtosis);
 
 }  // namespace gyro_allan

@@ -25,8 +25,9 @@ double noiseTermBasis(int term, double tau);
 /// A coefficient with its uncertainty. supported == false: the data does not support the term; value is 0
 /// and sigma is the 1-sigma upper bound of the coefficient (what it could be and still fit).
 /// Intervals (same units as value): a supported term has two-sided intervals [lo68, hi68] (68.3 %) and
-/// [lo95, hi95] (95 %); an unsupported one has lo68 = lo95 = 0 and one-sided upper bounds hi68 (68.3 %) and hi95
-/// (95 %). The coefficient is the square root of its AVAR weight c; intervals are taken on c (where the estimate is
+/// [lo95, hi95] (95 %); an unsupported one has lo68 = lo95 = 0 and as upper bounds hi68 / hi95 the upper ends of
+/// the two-sided 68.3 % / 95 % intervals of its unconstrained estimate (so [0, hi] holds the truth at least as often
+/// as the two-sided interval would). The coefficient is the square root of its AVAR weight c; intervals are taken on c (where the estimate is
 /// near normal) and mapped through the square root, so they are asymmetric.
 struct Coefficient {
   double value = 0;
@@ -43,7 +44,24 @@ struct ExtraTerm {
   std::function<double(double tau)> basis;
 };
 
+/// How the fit weights the Allan-variance points.
+///  Covariance: generalized least squares with the full covariance of the overlapping AVAR estimates across tau
+///              (avar_covariance.hpp) at the current model, on an octave-spaced subset of the points (neighbouring
+///              points of a denser grid add almost no information and make the covariance near-singular); terms are
+///              selected by the decrease in generalized chi-squared they buy (penalty per term), uncertainties are
+///              the inverse of the GLS information matrix. Used for oadev curves (the default).
+///  Edf:        each point weighted by its EDF (2 model^2/edf), neighbours decorrelated by grid density, terms kept
+///              at `significance` sigma (the tool's method before the calibration work; other deviations).
+enum class FitWeighting { Covariance, Edf };
+
 struct FitOptions {
+  FitWeighting weighting = FitWeighting::Covariance;
+  /// Covariance weighting: a term is selected only if it lowers the generalized chi-squared by more than this
+  /// (likelihood-ratio test of a non-negative coefficient: false selection of an absent term ~ P(chi2_1 > p) / 2).
+  double term_penalty = 4.0;
+  /// ... for the rate ramp, which trades with rate random walk over the longest taus: K is preferred unless the data
+  /// demand a ramp.
+  double ramp_penalty = 6.0;
   std::array<bool, kNumTerms> enabled{{true, true, true, true, true}};
   int iterations = 6;          ///< reweighting iterations (weights from the current model)
   double min_edf = 3.0;        ///< points with smaller EDF are not fitted (their chi-squared is too skewed)
@@ -66,6 +84,16 @@ struct FitResult {
   double chi2_dof = 0;                        ///< chi2 / dof
   double rms_log10 = 0;                       ///< RMS of log10(measured/model ADEV) over points with edf >= rms_min_edf
   int n_rms = 0;                              ///< points in rms_log10
+  /// Covariance weighting: chi2 is the generalized chi-squared r' C^-1 r over the octave-spaced points (`gls_used`),
+  /// chi2_p its upper-tail probability under chi2(dof); uncertainty says how the intervals were obtained.
+  bool gls = false;
+  std::vector<bool> gls_used;
+  double chi2_p = 1.0;
+  std::string uncertainty;                    ///< e.g. "GLS covariance of the AVAR estimates (analytic)"
+  /// Evidence per IEEE term: for a selected term, how much the generalized chi-squared rises without it; for a term
+  /// not selected, how much it would fall with it (compare with term_penalty / ramp_penalty).
+  std::array<double, kNumTerms> evidence{{0, 0, 0, 0, 0}};
+  double uncertainty_inflation = 1.0;         ///< sigmas scaled by sqrt(chi2/dof) when the model misfits (p < 0.01)
 };
 
 /// Fits the model to `curve` (AVAR in curve.points[i].var; weights from points[i].edf; edf <= 0 is treated as

@@ -70,6 +70,7 @@ AvarCovarianceBasis avarCovarianceBasis(const std::vector<int64_t>& m, const std
   for (auto& row : out.G)
     for (auto& g : row) g = Eigen::MatrixXd::Zero(np, np);
   for (auto& h : out.H) h = Eigen::MatrixXd::Zero(np, np);
+  out.K4 = Eigen::MatrixXd::Zero(np, np);
   // Powers of tau0 of each term's generalized covariance at a lag of t samples: Q 1, N tau0, B tau0^2, K tau0^3.
   const long double scale[4] = {1.0L, tau0, static_cast<long double>(tau0) * tau0,
                                 static_cast<long double>(tau0) * tau0 * tau0};
@@ -97,6 +98,7 @@ AvarCovarianceBasis avarCovarianceBasis(const std::vector<int64_t>& m, const std
       knots.erase(std::unique(knots.begin(), knots.end()), knots.end());
 
       Sums s;
+      long double k4 = 0;
       auto evalAt = [&](long double h, long double weight) {
         long double cv[4];
         cv[kQ] = 0;
@@ -127,6 +129,11 @@ AvarCovarianceBasis avarCovarianceBasis(const std::vector<int64_t>& m, const std
           const long double w = count(static_cast<long double>(h));
           // Only the terms involving Q here; the smooth-smooth products are summed below over every lag.
           s.cc[kQ][kQ] += w * cq * cq;
+          long double c4 = 0;  // fourth-cumulant weight: sum of w_a^2 w_c^2 over the coinciding samples
+          for (int a2 = 0; a2 < 3; ++a2)
+            for (int c2 = 0; c2 < 3; ++c2)
+              if (a2 * mi - c2 * mj == h) c4 += kWeights[a2] * kWeights[a2] * kWeights[c2] * kWeights[c2];
+          k4 += w * c4;
           for (int q = 1; q < 4; ++q) s.cc[kQ][q] += w * cq * cv[q];
           s.c[kQ] += w * cq;
         }
@@ -164,6 +171,11 @@ AvarCovarianceBasis avarCovarianceBasis(const std::vector<int64_t>& m, const std
           out.G[static_cast<size_t>(p)][static_cast<size_t>(q)](i, j) = static_cast<double>(f);
           out.G[static_cast<size_t>(p)][static_cast<size_t>(q)](j, i) = static_cast<double>(f);
         }
+        if (p == kQ) {
+          const long double f4 = k4 / norm;
+          out.K4(i, j) = static_cast<double>(f4);
+          out.K4(j, i) = static_cast<double>(f4);
+        }
         const long double f = 4.0L * taui * taui * tauj * tauj * s.c[p] * scale[p] / norm;
         out.H[static_cast<size_t>(p)](i, j) = static_cast<double>(f);
         out.H[static_cast<size_t>(p)](j, i) = static_cast<double>(f);
@@ -172,9 +184,11 @@ AvarCovarianceBasis avarCovarianceBasis(const std::vector<int64_t>& m, const std
   return out;
 }
 
-Eigen::MatrixXd avarCovariance(const AvarCovarianceBasis& basis, const std::array<double, 5>& s) {
+Eigen::MatrixXd avarCovariance(const AvarCovarianceBasis& basis, const std::array<double, 5>& s,
+                               double quantization_excess_kurtosis) {
   const int np = static_cast<int>(basis.m.size());
   Eigen::MatrixXd cov = Eigen::MatrixXd::Zero(np, np);
+  if (s[0] > 0 && quantization_excess_kurtosis != 0) cov += quantization_excess_kurtosis * s[0] * s[0] * basis.K4;
   for (int p = 0; p < 4; ++p) {
     if (!(s[static_cast<size_t>(p)] > 0)) continue;
     for (int q = p; q < 4; ++q)

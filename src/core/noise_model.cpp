@@ -8,10 +8,14 @@
 
 #include <Eigen/Dense>
 
+#include "noise_model_internal.hpp"
+
 namespace gyro_allan {
 namespace {
-
 constexpr double kFlickerFactor = 0.44127134622499293;  // 2 ln2 / pi
+}  // namespace
+
+namespace detail {
 
 /// Lawson-Hanson active-set NNLS: min ||A x - b|| s.t. x >= 0. Written here because neither Eigen 3.3 (Noetic)
 /// nor Eigen 3.4's main modules ship an NNLS solver; the problems are tiny (<= ~10 columns).
@@ -63,6 +67,11 @@ Eigen::VectorXd nnls(const Eigen::MatrixXd& A, const Eigen::VectorXd& b) {
   }
   return x;
 }
+
+}  // namespace detail
+
+namespace {
+using detail::nnls;
 
 struct Column {
   int term;  // IEEE term index, or kNumTerms + extra index
@@ -131,6 +140,8 @@ FitError fitError(const DeviationCurve& curve, const std::vector<double>& model_
 }
 
 FitResult fitNoiseModel(const DeviationCurve& curve, const FitOptions& options, const std::vector<ExtraTerm>& extra) {
+  if (options.weighting == FitWeighting::Covariance && detail::glsApplies(curve))
+    return detail::fitNoiseModelGls(curve, options, extra);
   FitResult r;
   const size_t np = curve.points.size();
   r.tau.resize(np);
