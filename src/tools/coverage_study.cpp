@@ -1,0 +1,495 @@
+// Coverage study of the coefficient intervals: simulated gyros with declared IEEE 952 noise, the full analyzeAxis,
+// and per sensor class and term how often [lo68, hi68] / [lo95, hi95] hold the truth, plus bias, phantom and
+// detection rates; one CSV line per axis-run and term, and a summary table.
+//
+//   coverage_study [--seeds A-B] [--classes a,b,...] [--duration S | --durations S1,S2,...] [--rate HZ]
+//                  [--max-samples N] [--threads N] [--csv FILE] [--method auto|joint_fit|wavelet_split]
+//                  [--tau-grid G] [--no-model-check] [--no-wavelet-split] [--list]
+//
+// Seeds 1-999 are the tuning set (1-30 by convention), 1001- the validation set (1001-1030); the output says which.
+// Default: seeds 1-20, every class at its default duration and rate.
+//
+// Classes (declared truth; conventional units: Q arcsec, N deg/sqrt(h), B deg/h, K deg/h/sqrt(h), R deg/h^2,
+// input deg/h; SI in classes() below). Default record per class; --duration / --durations override it.
+//
+//   class         | Q    | N      | B     | K     | R | input | rate, length | notes
+//   --------------+------+--------+-------+-------+---+-------+--------------+-------------------------------------
+//   consumer      | -    | 0.25   | 8     | 10    | - | -     | 200 Hz, 1 h  | consumer MEMS (BMI088/ICM-20948)
+//   tactical      | -    | 0.1    | 0.8   | 0.5   | - | -     | 200 Hz, 1 h  | tactical MEMS (ADIS1649x), K small
+//   tactical_ramp | -    | 0.1    | 0.8   | 0.5   | 2 | -     | 200 Hz, 1 h  | the same with a ramp (the only R > 0)
+//   fog           | -    | 0.005  | 0.05  | -     | - | -     | 100 Hz, 2 h  | navigation FOG: N and B only
+//   rlg_dither    | 0.35 | 0.002  | 0.005 | -     | - | 0     | 100 Hz, 2 h  | dithered RLG (dither = true)
+//   rlg_saw0      | 0.35 | 0.002  | 0.005 | -     | - | 0     | 100 Hz, 2 h  | undithered RLG (dither = false). Q 0.35
+//   rlg_saw5      | 0.35 | 0.002  | 0.005 | -     | - | 5     | 100 Hz, 2 h  |   arcsec: pulse weight Q*sqrt(12) = 1.2
+//   rlg_saw10     | 0.35 | 0.002  | 0.005 | -     | - | 10    | 100 Hz, 2 h  |   arcsec (28 cm ring); a constant input
+//   rlg_saw15     | 0.35 | 0.002  | 0.005 | -     | - | 15    | 100 Hz, 2 h  |   makes the quantization a sawtooth
+//   issue         | -    | 0.6875 | 2.063 | 12.38 | - | -     | 100 Hz, 1 h  | the issue's example: N 2e-4 rad/sqrt(s),
+//                 |      |        |       |       |   |       |              |   B 1e-5 rad/s, K 1e-6 rad/s/sqrt(s)
+//   nk            | -    | 0.6875 | -     | 12.38 | - | -     | 100 Hz, 1 h  | the same with N and K only (phantom B?)
+//
+// The rate is lowered to max-samples/duration when above it (default 720000: a 4 h record runs at 50 Hz).
+// Each (class, duration, seed) simulates with its own stream: simulateAxis seed = seed + (FNV-1a hash of
+// "class@duration" << 32), so classes and durations are independent and a run is reproducible from its CSV line.
+// Measured (2 threads on a 2-core machine shared with other jobs, load 2.5-4): the default (seeds 1-20, 11 classes,
+// 220 runs) took 83-132 s wall; --durations 600,3600,14400 (660 runs) 194 s. Results do not depend on --threads.
+//
+// Per run (AnalysisOptions defaults except what the command line sets; one segment = the whole record) and term t
+// with truth T, the reported Coefficient c = AxisAnalysis::coefficients[t]:
+//   T > 0, c supported:    covered68 = lo68 <= T <= hi68, covered95 = lo95 <= T <= hi95      ("sup" columns)
+//   T > 0, c unsupported:  covered68 = T <= hi68, covered95 = T <= hi95 (one-sided bounds)   ("ub" columns)
+//   cov68 / cov95: over both kinds. bias: median of value/T - 1 over supported terms with T > 0.
+//   phantom: fraction of runs with T = 0 where the term is supported; detect: fraction with T > 0 where it is.
+//   noint: cases with T > 0 whose interval fields are empty (hi95 = 0 although value or sigma is not); they count
+//          as not covered.
+// Every coverage figure is followed by its binomial standard error sqrt(p(1-p)/n).
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <map>
+#include <mutex>
+#include <stdexcept>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "gyro_allan/analysis.hpp"
+#include "gyro_allan/noise_model.hpp"
+#include "gyro_allan/simulate.hpp"
+
+using namespace gyro_allan;
+
+namespace {
+
+constexpr double kDeg = M_PI / 180.0;
+constexpr double kArcsec = kDeg / 3600.0;
+constexpr double kDegPerSqrtH = kDeg / 60.0;          // deg/sqrt(h) -> rad/sqrt(s)
+constexpr double kDegPerH = kDeg / 3600.0;            // deg/h -> rad/s
+constexpr double kDegPerHSqrtH = kDeg / 3600.0 / 60.0;  // deg/h/sqrt(h) -> rad/s/sqrt(s)
+constexpr double kDegPerH2 = kDeg / 3600.0 / 3600.0;   // deg/h^2 -> rad/s^2
+const char* const kTermShort[kNumTerms] = {"Q", "N", "B", "K", "R"};
+
+struct Class {
+  std::string name;
+  double rate_hz = 100;
+  double duration_s = 3600;
+  AxisNoise a;
+};
+
+Class make(const char* name, double rate_hz, double hours, double q_arcsec, double n, double b, double k,
+           bool dither = true, double input_deg_h = 0) {
+  Class c;
+  c.name = name;
+  c.rate_hz = rate_hz;
+  c.duration_s = hours * 3600.0;
+  c.a.quantization = q_arcsec * kArcsec;
+  c.a.dither = dither;
+  c.a.angle_random_walk = n * kDegPerSqrtH;
+  c.a.bias_instability = b * kDegPerH;
+  c.a.rate_random_walk = k * kDegPerHSqrtH;
+  c.a.input_rate = input_deg_h * kDegPerH;
+  return c;
+}
+
+std::vector<Class> classes() {
+  std::vector<Class> c;
+  c.push_back(make("consumer", 200, 1, 0, 0.25, 8, 10));
+  c.push_back(make("tactical", 200, 1, 0, 0.1, 0.8, 0.5));
+  c.push_back(make("tactical_ramp", 200, 1, 0, 0.1, 0.8, 0.5));
+  c.back().a.rate_ramp = 2 * kDegPerH2;
+  c.push_back(make("fog", 100, 2, 0, 0.005, 0.05, 0));
+  c.push_back(make("rlg_dither", 100, 2, 0.35, 0.002, 0.005, 0, true));
+  c.push_back(make("rlg_saw0", 100, 2, 0.35, 0.002, 0.005, 0, false, 0));
+  c.push_back(make("rlg_saw5", 100, 2, 0.35, 0.002, 0.005, 0, false, 5));
+  c.push_back(make("rlg_saw10", 100, 2, 0.35, 0.002, 0.005, 0, false, 10));
+  c.push_back(make("rlg_saw15", 100, 2, 0.35, 0.002, 0.005, 0, false, 15));
+  c.push_back(make("issue", 100, 1, 0, 0, 0, 0));  // given in SI
+  c.back().a.angle_random_walk = 2e-4;
+  c.back().a.bias_instability = 1e-5;
+  c.back().a.rate_random_walk = 1e-6;
+  c.push_back(make("nk", 100, 1, 0, 0, 0, 0));
+  c.back().a.angle_random_walk = 2e-4;
+  c.back().a.rate_random_walk = 1e-6;
+  return c;
+}
+
+double truthOf(const AxisNoise& a, int t) {
+  switch (t) {
+    case kQuantization: return a.quantization;
+    case kAngleRandomWalk: return a.angle_random_walk;
+    case kBiasInstability: return a.bias_instability;
+    case kRateRandomWalk: return a.rate_random_walk;
+    case kRateRamp: return std::abs(a.rate_ramp);
+    default: return 0;
+  }
+}
+
+uint64_t fnv1a(const std::string& s) {
+  uint64_t h = 1469598103934665603ULL;
+  for (unsigned char ch : s) h = (h ^ ch) * 1099511628211ULL;
+  return h;
+}
+
+/// One class at one duration and rate.
+struct Job {
+  Class k;
+  double duration_s = 0;
+  double rate_hz = 0;
+  std::string key;  // class name, with @duration when several durations run
+  uint64_t stream = 0;  // added to the seed: (FNV-1a of "class@duration") << 32
+};
+
+struct Run {
+  size_t job = 0;
+  int seed = 0;
+  uint64_t sim_seed = 0;
+  bool ok = false;
+  std::string error;
+  std::string method;
+  double rms_log10 = 0, chi2_dof = 0;
+  std::array<Coefficient, kNumTerms> c;
+};
+
+/// Coverage tallies of one (class, term) cell.
+struct Cell {
+  int n = 0, in68 = 0, in95 = 0;        // truth > 0, both kinds
+  int ns = 0, s68 = 0, s95 = 0;         // supported
+  int nu = 0, u68 = 0, u95 = 0;         // unsupported (upper bounds)
+  int noint = 0;
+  int n0 = 0, phantom = 0;              // truth == 0
+  std::vector<double> rel;              // value/truth - 1, supported with truth > 0
+  void add(double truth, const Coefficient& c) {
+    if (truth > 0) {
+      ++n;
+      bool c68, c95;
+      if (c.supported) {
+        c68 = c.lo68 <= truth && truth <= c.hi68;
+        c95 = c.lo95 <= truth && truth <= c.hi95;
+        ++ns;
+        s68 += c68;
+        s95 += c95;
+        rel.push_back(c.value / truth - 1.0);
+      } else {
+        c68 = truth <= c.hi68;
+        c95 = truth <= c.hi95;
+        ++nu;
+        u68 += c68;
+        u95 += c95;
+      }
+      in68 += c68;
+      in95 += c95;
+      if (c.hi95 <= 0 && (c.value > 0 || c.sigma > 0)) ++noint;
+    } else {
+      ++n0;
+      phantom += c.supported;
+    }
+  }
+  void merge(const Cell& o) {
+    n += o.n, in68 += o.in68, in95 += o.in95, ns += o.ns, s68 += o.s68, s95 += o.s95, nu += o.nu, u68 += o.u68,
+        u95 += o.u95, noint += o.noint, n0 += o.n0, phantom += o.phantom;
+    rel.insert(rel.end(), o.rel.begin(), o.rel.end());
+  }
+};
+
+double median(std::vector<double> v) {
+  if (v.empty()) return std::nan("");
+  std::sort(v.begin(), v.end());
+  const size_t m = v.size() / 2;
+  return v.size() % 2 ? v[m] : 0.5 * (v[m - 1] + v[m]);
+}
+
+/// "0.650±0.107" (8 + 1 + 5 chars), or "-" when n == 0.
+std::string prop(int k, int n) {
+  if (n <= 0) return "-";
+  const double p = static_cast<double>(k) / n;
+  char buf[48];
+  std::snprintf(buf, sizeof buf, "%.3f±%.3f", p, std::sqrt(p * (1 - p) / n));
+  return buf;
+}
+
+std::string frac(int k, int n) {
+  if (n <= 0) return "-";
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.2f", static_cast<double>(k) / n);
+  return buf;
+}
+
+void printHeader() {
+  std::printf("%-14s %-4s %4s %-12s %-12s %4s %-12s %-12s %4s %-12s %-12s %9s %5s %8s %7s %6s\n", "class", "term",
+              "n", "cov68", "cov95", "ns", "sup-cov68", "sup-cov95", "nu", "ub-cov68", "ub-cov95", "bias(med)",
+              "noint", "phantom", "detect", "n0");
+}
+
+// printf pads by bytes; "±" is two bytes in UTF-8, so pad by hand.
+std::string pad(const std::string& s, size_t width) {
+  size_t chars = 0;
+  for (unsigned char ch : s) chars += (ch & 0xC0) != 0x80;
+  return chars >= width ? s : s + std::string(width - chars, ' ');
+}
+
+void printRow(const std::string& name, int t, const Cell& c) {
+  char bias[32] = "-";
+  if (!c.rel.empty()) std::snprintf(bias, sizeof bias, "%+.2f%%", 100 * median(c.rel));
+  std::printf("%-14s %-4s %4d %s %s %4d %s %s %4d %s %s %9s %5d %8s %7s %6d\n", name.c_str(), kTermShort[t], c.n,
+              pad(prop(c.in68, c.n), 12).c_str(), pad(prop(c.in95, c.n), 12).c_str(), c.ns,
+              pad(prop(c.s68, c.ns), 12).c_str(), pad(prop(c.s95, c.ns), 12).c_str(), c.nu,
+              pad(prop(c.u68, c.nu), 12).c_str(), pad(prop(c.u95, c.nu), 12).c_str(), bias, c.noint,
+              frac(c.phantom, c.n0).c_str(), frac(c.ns, c.n).c_str(), c.n0);
+}
+
+std::vector<std::string> splitList(const std::string& s) {
+  std::vector<std::string> out;
+  size_t p = 0;
+  while (p <= s.size()) {
+    const size_t q = s.find(',', p);
+    const std::string item = s.substr(p, q == std::string::npos ? std::string::npos : q - p);
+    if (!item.empty()) out.push_back(item);
+    if (q == std::string::npos) break;
+    p = q + 1;
+  }
+  return out;
+}
+
+double parsePositive(const std::string& s, const char* what) {
+  char* end = nullptr;
+  const double v = std::strtod(s.c_str(), &end);
+  if (s.empty() || *end != '\0' || !(v > 0) || !std::isfinite(v))
+    throw std::invalid_argument(std::string(what) + ": not a positive number: '" + s + "'");
+  return v;
+}
+
+void usage() {
+  std::fprintf(stderr,
+               "usage: coverage_study [--seeds A-B] [--classes a,b,...] [--duration S | --durations S1,S2,...]\n"
+               "                      [--rate HZ] [--max-samples N] [--threads N] [--csv FILE]\n"
+               "                      [--method auto|joint_fit|wavelet_split] [--tau-grid G] [--no-model-check]\n"
+               "                      [--no-wavelet-split] [--list]\n"
+               "  seeds 1-999: tuning set (1-30), 1001-: validation set (1001-1030). Default 1-20.\n"
+               "  rate: each class's rate (--list) unless --rate; lowered to max-samples/duration when above it\n"
+               "  (default max-samples 720000 = 2 h at 100 Hz, so a 4 h record runs at 50 Hz).\n");
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    std::string seeds = "1-20", only, csv_path, durations;
+    double duration_override = 0, rate_override = 0, max_samples = 720000;
+    int threads = static_cast<int>(std::min(2u, std::max(1u, std::thread::hardware_concurrency())));
+    bool list = false;
+    AnalysisOptions opt;
+    for (int i = 1; i < argc; ++i) {
+      const std::string a = argv[i];
+      auto next = [&]() -> std::string {
+        if (i + 1 >= argc) throw std::invalid_argument(a + " needs a value");
+        return argv[++i];
+      };
+      if (a == "--seeds") seeds = next();
+      else if (a == "--classes" || a == "--class") only = next();
+      else if (a == "--duration") duration_override = parsePositive(next(), "--duration");
+      else if (a == "--durations") durations = next();
+      else if (a == "--rate") rate_override = parsePositive(next(), "--rate");
+      else if (a == "--max-samples") max_samples = parsePositive(next(), "--max-samples");
+      else if (a == "--threads") threads = static_cast<int>(parsePositive(next(), "--threads"));
+      else if (a == "--csv") csv_path = next();
+      else if (a == "--method") opt.method = next();
+      else if (a == "--tau-grid") {
+        std::string err;
+        if (!parseTauGrid(next(), &opt.deviation.grid, &err)) throw std::invalid_argument("--tau-grid: " + err);
+      } else if (a == "--no-model-check") opt.model_check = false;
+      else if (a == "--no-wavelet-split") opt.wavelet_split = false;
+      else if (a == "--list") list = true;
+      else if (a == "--help" || a == "-h") {
+        usage();
+        return 0;
+      } else {
+        usage();
+        throw std::invalid_argument("unknown argument '" + a + "'");
+      }
+    }
+    if (opt.method != "auto" && opt.method != "joint_fit" && opt.method != "wavelet_split")
+      throw std::invalid_argument("--method: auto, joint_fit or wavelet_split");
+    if (duration_override > 0 && !durations.empty())
+      throw std::invalid_argument("--duration and --durations exclude each other");
+
+    const std::vector<Class> all = classes();
+    if (list) {
+      std::printf("%-14s %8s %8s %10s %10s %10s %10s %10s %6s %8s\n", "class", "rate_hz", "dur_s", "Q[arcsec]",
+                  "N[d/rh]", "B[d/h]", "K[d/h/rh]", "R[d/h2]", "dither", "in[d/h]");
+      for (const auto& k : all)
+        std::printf("%-14s %8.0f %8.0f %10.4g %10.4g %10.4g %10.4g %10.4g %6d %8.3g\n", k.name.c_str(), k.rate_hz,
+                    k.duration_s, k.a.quantization / kArcsec, k.a.angle_random_walk / kDegPerSqrtH,
+                    k.a.bias_instability / kDegPerH, k.a.rate_random_walk / kDegPerHSqrtH, k.a.rate_ramp / kDegPerH2,
+                    k.a.dither ? 1 : 0, k.a.input_rate / kDegPerH);
+      return 0;
+    }
+
+    int s0 = 0, s1 = 0;
+    {
+      const size_t dash = seeds.find('-');
+      const std::string a = seeds.substr(0, dash), b = dash == std::string::npos ? a : seeds.substr(dash + 1);
+      auto digits = [](const std::string& x) {
+        return !x.empty() && x.size() < 10 &&
+               std::all_of(x.begin(), x.end(), [](char ch) { return ch >= '0' && ch <= '9'; });
+      };
+      if (!digits(a) || !digits(b)) throw std::invalid_argument("--seeds: A-B or A (non-negative integers)");
+      s0 = std::atoi(a.c_str());
+      s1 = std::atoi(b.c_str());
+      if (s1 < s0) throw std::invalid_argument("--seeds: A-B with A <= B");
+    }
+    const char* set = s1 <= 999 ? "tuning set" : (s0 >= 1001 ? "validation set" : "MIXED tuning and validation seeds");
+
+    std::vector<std::string> wanted = splitList(only);
+    for (const auto& w : wanted)
+      if (std::none_of(all.begin(), all.end(), [&](const Class& k) { return k.name == w; }))
+        throw std::invalid_argument("unknown class '" + w + "' (--list shows them)");
+    std::vector<double> durs;
+    for (const auto& d : splitList(durations)) durs.push_back(parsePositive(d, "--durations"));
+    if (duration_override > 0) durs = {duration_override};
+
+    std::vector<Job> jobs;
+    for (const auto& k : all) {
+      if (!wanted.empty() && std::find(wanted.begin(), wanted.end(), k.name) == wanted.end()) continue;
+      const std::vector<double> ds = durs.empty() ? std::vector<double>{k.duration_s} : durs;
+      for (double d : ds) {
+        Job j;
+        j.k = k;
+        j.duration_s = d;
+        j.rate_hz = rate_override > 0 ? rate_override : k.rate_hz;
+        if (j.rate_hz * d > max_samples) j.rate_hz = max_samples / d;
+        j.key = k.name;
+        j.stream = fnv1a(k.name + "@" + std::to_string(static_cast<long>(std::lround(d)))) << 32;
+        if (durs.size() > 1) j.key += "@" + std::to_string(static_cast<long>(std::lround(d))) + "s";
+        jobs.push_back(j);
+      }
+    }
+
+    std::vector<Run> runs;
+    for (size_t j = 0; j < jobs.size(); ++j)
+      for (int s = s0; s <= s1; ++s) {
+        Run r;
+        r.job = j;
+        r.seed = s;
+        r.sim_seed = static_cast<uint64_t>(s) + jobs[j].stream;
+        runs.push_back(r);
+      }
+
+    std::printf("# coverage_study: seeds %d-%d (%s), %zu class runs x %d seeds = %zu axis-runs, %d thread(s)\n", s0,
+                s1, set, jobs.size(), s1 - s0 + 1, runs.size(), threads);
+    std::printf("# analyzeAxis: method %s, tau grid %s, wavelet split %s, model check %s, spikes removed %s\n",
+                opt.method.c_str(), tauGridName(opt.deviation.grid).c_str(), opt.wavelet_split ? "on" : "off",
+                opt.model_check ? "on" : "off", opt.remove_spikes ? "yes" : "no");
+    std::fflush(stdout);
+
+    const auto t_start = std::chrono::steady_clock::now();
+    std::atomic<size_t> next_run{0};
+    std::mutex progress;
+    size_t done = 0;
+    auto worker = [&]() {
+      for (;;) {
+        const size_t i = next_run.fetch_add(1);
+        if (i >= runs.size()) return;
+        Run& r = runs[i];
+        const Job& j = jobs[r.job];
+        try {
+          const int64_t n = static_cast<int64_t>(std::llround(j.rate_hz * j.duration_s));
+          std::vector<std::vector<double>> seg(1);
+          seg[0] = simulateAxis(j.k.a, j.rate_hz, n, r.sim_seed, 0);
+          const AxisAnalysis a = analyzeAxis("x", seg, 1.0 / j.rate_hz, opt);
+          r.c = a.coefficients;
+          r.method = a.method;
+          r.rms_log10 = a.final_error.rms_log10;
+          r.chi2_dof = a.final_error.chi2_dof;
+          r.ok = true;
+        } catch (const std::exception& e) {
+          r.error = e.what();
+        }
+        std::lock_guard<std::mutex> lock(progress);
+        ++done;
+        if (done % 20 == 0 || done == runs.size())
+          std::fprintf(stderr, "\r%zu/%zu runs", done, runs.size()), std::fflush(stderr);
+      }
+    };
+    std::vector<std::thread> pool;
+    for (int t = 0; t < std::max(1, threads); ++t) pool.emplace_back(worker);
+    for (auto& th : pool) th.join();
+    std::fprintf(stderr, "\n");
+    const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+
+    if (!csv_path.empty()) {
+      FILE* csv = std::fopen(csv_path.c_str(), "w");
+      if (!csv) throw std::runtime_error("cannot write " + csv_path);
+      std::fprintf(csv,
+                   "class,duration_s,rate_hz,seed,sim_seed,term,truth,value,sigma,lo68,hi68,lo95,hi95,supported,"
+                   "method,rms_log10,chi2_dof,error\n");
+      for (const auto& r : runs) {
+        const Job& j = jobs[r.job];
+        for (int t = 0; t < kNumTerms; ++t) {
+          const Coefficient& c = r.c[static_cast<size_t>(t)];
+          std::string err = r.error;
+          for (auto& ch : err)
+            if (ch == ',' || ch == '"' || ch == '\n') ch = ';';
+          std::fprintf(csv, "%s,%.0f,%.6g,%d,%llu,%s,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%d,%s,%.6g,%.6g,%s\n",
+                       j.k.name.c_str(), j.duration_s, j.rate_hz, r.seed,
+                       static_cast<unsigned long long>(r.sim_seed), kTermShort[t], truthOf(j.k.a, t), c.value,
+                       c.sigma, c.lo68, c.hi68, c.lo95, c.hi95, c.supported ? 1 : 0, r.method.c_str(), r.rms_log10,
+                       r.chi2_dof, err.c_str());
+        }
+      }
+      std::fclose(csv);
+    }
+
+    // Summary: per class run (class@duration), per term, then all classes.
+    std::array<Cell, kNumTerms> total;
+    std::printf("# coverage of the truth by [lo68,hi68] / [lo95,hi95] (unsupported terms: by the one-sided bounds), "
+                "each ± its binomial standard error; bias = median(value/truth - 1) over supported terms\n");
+    std::printf("# cov = all cases with truth > 0 (n); sup = supported (ns); ub = unsupported, upper bound (nu); "
+                "noint = interval fields empty; phantom = supported with truth 0 (of n0); detect = ns/n\n");
+    int errors = 0;
+    for (size_t ji = 0; ji < jobs.size(); ++ji) {
+      const Job& j = jobs[ji];
+      std::array<Cell, kNumTerms> cells;
+      std::map<std::string, int> methods;
+      std::vector<double> rms, chi;
+      int ok = 0, err = 0;
+      std::string first_error;
+      for (const auto& r : runs) {
+        if (r.job != ji) continue;
+        if (!r.ok) {
+          ++err;
+          if (first_error.empty()) first_error = r.error;
+          continue;
+        }
+        ++ok;
+        ++methods[r.method];
+        rms.push_back(r.rms_log10);
+        chi.push_back(r.chi2_dof);
+        for (int t = 0; t < kNumTerms; ++t)
+          cells[static_cast<size_t>(t)].add(truthOf(j.k.a, t), r.c[static_cast<size_t>(t)]);
+      }
+      errors += err;
+      std::string m;
+      for (const auto& kv : methods) m += " " + kv.first + " " + std::to_string(kv.second);
+      std::printf("\n## %s: %.0f s at %.4g Hz, %d runs ok, %d failed;%s; median rms_log10 %.4f, median chi2_dof %.3g\n",
+                  j.key.c_str(), j.duration_s, j.rate_hz, ok, err, m.c_str(), median(rms), median(chi));
+      if (!first_error.empty()) std::printf("   first error: %s\n", first_error.c_str());
+      printHeader();
+      for (int t = 0; t < kNumTerms; ++t) {
+        printRow(j.key, t, cells[static_cast<size_t>(t)]);
+        total[static_cast<size_t>(t)].merge(cells[static_cast<size_t>(t)]);
+      }
+    }
+    std::printf("\n## all classes (seeds %d-%d, %s)\n", s0, s1, set);
+    printHeader();
+    for (int t = 0; t < kNumTerms; ++t) printRow("all", t, total[static_cast<size_t>(t)]);
+    std::printf("\n# %zu axis-runs (%d failed) in %.1f s wall on %d thread(s)\n", runs.size(), errors, elapsed,
+                threads);
+    return 0;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "coverage_study: %s\n", e.what());
+    return 1;
+  }
+}
