@@ -495,12 +495,12 @@ WaveletSplitResult waveletSplit(const std::vector<double>& rate, double tau0, co
 
   // 6. Reported coefficients.
   if (options.q_estimator == "angle") {
-    r.terms[kQuantization] = {r.q_angle, r.q_angle_sigma, r.q_angle > 2 * r.q_angle_sigma};
+    r.terms[kQuantization] = coefficientFromSquare(q2, q2_sigma);
   } else {
     r.terms[kQuantization] = r.removed_fit.terms[kQuantization];
   }
   if (options.n_estimator == "wavelet_variance") {
-    r.terms[kAngleRandomWalk] = {r.n_wavelet, r.n_wavelet_sigma, r.n_wavelet > 2 * r.n_wavelet_sigma};
+    r.terms[kAngleRandomWalk] = coefficientFromSquare(n2, n2_sigma);
   } else {
     r.terms[kAngleRandomWalk] = r.denoised_fit.terms[kAngleRandomWalk];
   }

@@ -1,0 +1,91 @@
+// Calibration of the IEEE fit's intervals and term selection on simulated gyros with declared noise (fixed seeds):
+// coverage of the 68 % / 95 % intervals and the phantom-term rate, with tolerances from the binomial spread.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <thread>
+
+#include "gyro_allan/allan.hpp"
+#include "gyro_allan/analysis.hpp"
+#include "gyro_allan/model_check.hpp"
+#include "gyro_allan/noise_model.hpp"
+#include "gyro_allan/simulate.hpp"
+
+using namespace gyro_allan;
+
+namespace {
+
+constexpr double kDeg = M_PI / 180.0;
+
+struct Tally {
+  int cases = 0, in68 = 0, in95 = 0;  // terms with truth > 0
+  int zeros = 0, phantom = 0;         // terms with truth 0
+};
+
+// Runs the plain joint fit (oadev, GLS) on `seeds` records of one class and tallies every term.
+void runClass(const AxisNoise& noise, double rate_hz, double duration_s, uint64_t first_seed, int seeds, Tally* t) {
+  const double truth[kNumTerms] = {noise.quantization, noise.angle_random_walk, noise.bias_instability,
+                                   noise.rate_random_walk, noise.rate_ramp};
+  std::vector<FitResult> fits(static_cast<size_t>(seeds));
+  auto work = [&](int part) {
+    for (int s = part; s < seeds; s += 2) {
+      const std::vector<double> y =
+          simulateAxis(noise, rate_hz, static_cast<int64_t>(rate_hz * duration_s), first_seed + static_cast<uint64_t>(s));
+      DeviationCurve c = computeDeviation("oadev", y, InputKind::Rate, 1.0 / rate_hz, DeviationOptions{});
+      enforceRedderWithTau(&c, 0.683);
+      fits[static_cast<size_t>(s)] = fitWithModelEdf(&c, FitOptions{}, 0.683);
+    }
+  };
+  std::thread th(work, 1);
+  work(0);
+  th.join();
+  for (const FitResult& f : fits) {
+    ASSERT_TRUE(f.ok) << f.message;
+    for (int k = 0; k < kNumTerms; ++k) {
+      const Coefficient& co = f.terms[static_cast<size_t>(k)];
+      if (truth[k] > 0) {
+        ++t->cases;
+        t->in68 += (truth[k] >= co.lo68 && truth[k] <= co.hi68) ? 1 : 0;
+        t->in95 += (truth[k] >= co.lo95 && truth[k] <= co.hi95) ? 1 : 0;
+      } else {
+        ++t->zeros;
+        t->phantom += co.supported ? 1 : 0;
+      }
+    }
+  }
+}
+
+// |observed - p| within 3 binomial standard deviations (a false failure ~ 0.3 % per check).
+void expectBinomial(int hits, int n, double p, const char* what) {
+  const double sd = std::sqrt(p * (1 - p) / n);
+  EXPECT_NEAR(static_cast<double>(hits) / n, p, 3 * sd) << what << ": " << hits << "/" << n;
+}
+
+}  // namespace
+
+TEST(Calibration, IntervalsCoverAndNoPhantomTerms) {
+  // Two classes (validation-style seeds 7001..): the MEMS example (N, B, K; Q and R absent) and a dithered
+  // ring-laser gyro (Q, N, B; K and R absent). 30 records each, 30 min at 100 Hz.
+  Tally t;
+  AxisNoise mems;
+  mems.angle_random_walk = 2e-4;
+  mems.bias_instability = 1e-5;
+  mems.rate_random_walk = 1e-6;
+  runClass(mems, 100, 1800, 7001, 30, &t);
+  AxisNoise rlg;
+  rlg.quantization = 0.35 / 3600 * kDeg;
+  rlg.angle_random_walk = 0.002 / 60 * kDeg;
+  rlg.bias_instability = 0.003 / 3600 * kDeg;
+  runClass(rlg, 100, 1800, 7101, 30, &t);
+  ASSERT_EQ(t.cases, 180);
+  std::printf("coverage 68 %%: %d/%d, 95 %%: %d/%d; phantom terms %d/%d\n", t.in68, t.cases, t.in95, t.cases, t.phantom,
+              t.zeros);
+  // Coverage pooled over terms (cases within a record are not independent; the 3-sigma band still allows for it).
+  expectBinomial(t.in68, t.cases, 0.683, "68 % intervals holding the truth");
+  EXPECT_GE(static_cast<double>(t.in95) / t.cases, 0.95 - 3 * std::sqrt(0.95 * 0.05 / t.cases))
+      << "95 % intervals holding the truth: " << t.in95 << "/" << t.cases;
+  // Phantom terms: the selection penalty 4 (6 for the ramp) aims at <= 5 % per absent term.
+  EXPECT_LE(static_cast<double>(t.phantom) / t.zeros, 0.05 + 3 * std::sqrt(0.05 * 0.95 / t.zeros))
+      << "absent terms reported supported: " << t.phantom << "/" << t.zeros;
+}
