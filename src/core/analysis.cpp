@@ -8,6 +8,12 @@
 #include <thread>
 
 namespace gyro_allan {
+namespace {
+// A fit is grossly bad when its generalized chi-squared is far out of reach of chance (clean records: p ~ U(0,1),
+// chi2/dof ~ 1 +- 0.4) and large in size: misfits from sawtooth quantization reach chi2/dof 1e3.
+constexpr double kGrossMisfitP = 1e-6;
+constexpr double kGrossMisfitChi2Dof = 10.0;
+}  // namespace
 
 double conventionalFactor(int term) {
   const double deg = 180.0 / M_PI;
@@ -224,6 +230,29 @@ AxisAnalysis AxisStages::finish() {
     } else {
       method = "joint_fit";
       a.method_reason = split_ok ? "quantization does not dominate the shortest tau" : "wavelet split not available";
+    }
+    // Evidence: each method's generalized chi-squared on the curve it fitted (joint: the Allan variance; split: the
+    // denoised signal's). Neither is returned when its fit is grossly worse than the other's — e.g. an undithered
+    // pulse counter at constant rate, whose sawtooth quantization the Allan model cannot describe (chi2/dof ~1e3)
+    // while the split removes it and fits the rest at chi2/dof ~1.
+    const FitResult& joint = a.fit;
+    const FitResult* den = split_ok && a.split.denoised_fit.ok ? &a.split.denoised_fit : nullptr;
+    auto gross = [](const FitResult& f) { return f.gls && f.chi2_p < kGrossMisfitP && f.chi2_dof > kGrossMisfitChi2Dof; };
+    char buf[240];
+    if (method == "joint_fit" && den && gross(joint) && !gross(*den) && den->chi2_dof * 10 < joint.chi2_dof) {
+      method = "wavelet_split";
+      std::snprintf(buf, sizeof buf,
+                    "the Allan model cannot describe the curve (joint fit chi2/dof %.3g, p %.2g) while the split's "
+                    "fit of the denoised signal has chi2/dof %.3g",
+                    joint.chi2_dof, joint.chi2_p, den->chi2_dof);
+      a.method_reason = buf;
+    } else if (method == "wavelet_split" && den && gross(*den) && !gross(joint) && joint.chi2_dof * 10 < den->chi2_dof) {
+      method = "joint_fit";
+      std::snprintf(buf, sizeof buf,
+                    "quantization dominates the shortest tau, but the split's fit is grossly worse (chi2/dof %.3g "
+                    "against the joint fit's %.3g)",
+                    den->chi2_dof, joint.chi2_dof);
+      a.method_reason = buf;
     }
   } else {
     a.method_reason = "requested";
