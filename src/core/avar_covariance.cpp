@@ -139,7 +139,7 @@ AvarCovarianceBasis avarCovarianceBasis(const std::vector<int64_t>& m, const std
         }
       // Smooth terms: exact near each knot, integrated between them (midpoint rule over the integers, Gauss-Legendre
       // on geometrically graded panels so the flicker's logarithms near the knots are resolved).
-      constexpr int64_t kExact = 16;
+      constexpr int64_t kExact = 8;
       for (size_t t = 0; t + 1 < knots.size(); ++t) {
         const int64_t a = knots[t], b = knots[t + 1] - 1;  // integers a..b
         if (b < lo || a > hi) continue;
@@ -152,10 +152,10 @@ AvarCovarianceBasis avarCovarianceBasis(const std::vector<int64_t>& m, const std
         const long double u = static_cast<long double>(a + kExact) - 0.5L;
         const long double v = static_cast<long double>(b - kExact) + 0.5L;
         const long double mid = 0.5L * (u + v), half = 0.5L * (v - u);
-        // Panels from each end: widths in ratio 1:2:4:8 over each half.
-        const long double frac[5] = {0.0L, 1.0L / 15, 3.0L / 15, 7.0L / 15, 1.0L};
+        // Panels from each end: widths in ratio 1:3:9 over each half.
+        const long double frac[4] = {0.0L, 1.0L / 13, 4.0L / 13, 1.0L};
         for (int side = 0; side < 2; ++side)
-          for (int p = 0; p < 4; ++p) {
+          for (int p = 0; p < 3; ++p) {
             const long double x0 = side == 0 ? u + frac[p] * half : v - frac[p + 1] * half;
             const long double x1 = side == 0 ? u + frac[p + 1] * half : v - frac[p] * half;
             const long double c = 0.5L * (x0 + x1), r = 0.5L * (x1 - x0);
