@@ -111,6 +111,7 @@ void AxisStages::prepare() {
   if (a.segments > 1)
     a.notes.push_back("wavelet split and model check use the longest gap-free segment (" +
                       std::to_string(segments[longest_].size()) + " of " + std::to_string(a.samples) + " samples)");
+  if (options.input == InputKind::Rate) a.quantized = detectQuantizedOutput(segments[longest_], tau0);
   if (options.input != InputKind::Rate && (options.wavelet_split || options.model_check))
     a.notes.push_back("wavelet split and model check need rate samples: skipped for angle input");
   prepared_ = true;
@@ -249,6 +250,7 @@ AxisAnalysis AxisStages::finish() {
     a.final_model_var = a.fit.model_var;
     a.final_error = {a.fit.rms_log10, a.fit.chi2_dof, a.fit.n_rms};
   }
+  a.quality = assessQuality(a);
   return std::move(a_);
 }
 
