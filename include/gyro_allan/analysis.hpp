@@ -69,7 +69,7 @@ struct AxisAnalysis {
   std::array<Coefficient, kNumTerms> coefficients_with_spikes;
   FitError error_with_spikes;       ///< rms_log10 / chi2_dof of that fit
   /// Rate input: is the output on a lattice (pulse counter, ADC LSB), and an undithered counter's sawtooth?
-  /// (quantized_output.hpp; on the longest gap-free segment, after spike removal)
+  /// (quantized_output.hpp; on the longest gap-free segment, as read: before spike removal)
   QuantizedOutput quantized;
   QualityVerdict quality;           ///< verdict on `coefficients` (quality.hpp), set by finish()
 };

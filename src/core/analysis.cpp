@@ -73,6 +73,7 @@ void AxisStages::prepare() {
   if (a.samples < 3) throw std::invalid_argument("axis " + axis + ": too few samples (" + std::to_string(a.samples) + ")");
   a.mean = static_cast<double>(sum / a.samples);
   a.duration_s = static_cast<double>(a.samples) * tau0;
+  if (options.input == InputKind::Rate) a.quantized = detectQuantizedOutput(segments, tau0);  // before spike removal
   if (spikes_on) removeSegmentSpikes();
   a.oadev = computeDeviation("oadev", segments, options.input, tau0, options.deviation);
   raw_oadev_ = a.oadev;  // as computed, for the wavelet split's own fit error
@@ -111,7 +112,6 @@ void AxisStages::prepare() {
   if (a.segments > 1)
     a.notes.push_back("wavelet split and model check use the longest gap-free segment (" +
                       std::to_string(segments[longest_].size()) + " of " + std::to_string(a.samples) + " samples)");
-  if (options.input == InputKind::Rate) a.quantized = detectQuantizedOutput(segments[longest_], tau0);
   if (options.input != InputKind::Rate && (options.wavelet_split || options.model_check))
     a.notes.push_back("wavelet split and model check need rate samples: skipped for angle input");
   prepared_ = true;
