@@ -125,7 +125,10 @@ def main(argv):
                 line = [math.sqrt(float(v) ** 2 * term[3](t)) for t in tau]
                 ax.loglog(tau, line, ":", color=TERM_COLORS[i], lw=1.2, label=term[2])
             ax.set_ylim(ymin / 2.0, ymax * 2.0)  # term lines far below the data do not squash the plot
-            ax.set_title("%s %s (%s)" % (sensor, name, axis_node.get("method", "")))
+            quality = axis_node.get("quality")
+            verdict = {"bad": ", BAD FIT", "doubtful": ", doubtful"}.get(quality, "")
+            ax.set_title("%s %s (%s%s)" % (sensor, name, axis_node.get("method", ""), verdict),
+                         color="tab:red" if quality == "bad" else "black")
             ax.set_xlabel("tau [s]")
             ax.set_ylabel("Allan deviation [%s]" % unit)
             ax.grid(True, which="both", alpha=0.3)

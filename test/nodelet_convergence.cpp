@@ -244,6 +244,9 @@ TEST(NodeletConvergence, ConvergesReactsAndRecovers) {
   EXPECT_EQ(h.level("angle random walk"), OK) << h.message("angle random walk");
   EXPECT_LE(h.level("input rate"), WARN) << h.message("input rate");
   EXPECT_GE(h.level("fit quality"), OK) << "fit quality status missing";
+  // The verdict analyze_bag writes (quality.hpp): present, and clean data is not a bad fit.
+  EXPECT_GE(h.level("quality verdict"), OK) << "quality verdict status missing";
+  EXPECT_LE(h.level("quality verdict"), WARN) << h.message("quality verdict");
 
   // A2. Arrival-time stamps (jitter up to half a period, 1 % of samples late by 2-10 periods with a burst
   // behind): the grid places the samples; no gap, no stamp warning, one segment, N still converged.

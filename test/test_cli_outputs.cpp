@@ -1,5 +1,6 @@
 // What users see (issue 7): Kalibr imu.yaml against the report, accelerometer section, batch summary.csv, plot PNG
-// size, and the gap between two stitched bags, by running the tools end to end.
+// size, the gap between two stitched bags, and the quality verdict and quantized output in every output, by running
+// the tools end to end.
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 
@@ -140,9 +141,13 @@ TEST_F(Outputs, BatchWritesOneReportPerBagAndOneSummaryRowPerBagSensorAxis) {
   const std::vector<std::string> rows = lines(slurp(out + "/summary.csv"));
   ASSERT_EQ(rows.size(), 1u + 2 * 6 + 1) << slurp(out + "/summary.csv");  // header, 2 bags x (3 gyro + 3 accel), 1 error
   EXPECT_EQ(rows[0].rfind("bag,sensor,axis,status,", 0), 0u);
+  EXPECT_NE(rows[0].find(",method,quality,error"), std::string::npos) << rows[0];
   int gyro_rows = 0, failed = 0;
   for (const auto& row : rows) {
-    if (row.find(",gyro,") != std::string::npos) ++gyro_rows;
+    if (row.find(",gyro,") != std::string::npos) {
+      ++gyro_rows;
+      EXPECT_NE(row.find(",joint_fit,good,"), std::string::npos) << row;  // clean simulated white noise + RRW
+    }
     if (row.rfind("broken.bag,", 0) == 0) {
       ++failed;
       EXPECT_NE(row.find("failed"), std::string::npos);
@@ -155,6 +160,100 @@ TEST_F(Outputs, BatchWritesOneReportPerBagAndOneSummaryRowPerBagSensorAxis) {
     EXPECT_EQ(rep["input"]["sources"].size(), 1u) << bag;
     EXPECT_FALSE(slurp(out + "/" + bag + "/imu.yaml").empty());
   }
+}
+
+// The bundled bag (MEMS gyro, rates rounded to 1e-4 rad/s): every axis has a verdict (good: a clean simulated record)
+// with its reason in report.yaml, the printed table and imu.yaml, and its output is recognised as a 1e-4 rad/s
+// lattice without sawtooth.
+TEST_F(Outputs, DefaultBagVerdictAndQuantizedOutputInEveryOutput) {
+  const std::string out = kOut + "/default";
+  const ToolRun r = run(kTools + "/analyze_bag " + kSource + "/bags/default.bag --no-plot --output " + out);
+  ASSERT_EQ(r.code, 0) << r.err;
+  const YAML::Node rep = YAML::LoadFile(out + "/report.yaml");
+  const std::string imu = slurp(out + "/imu.yaml");
+  for (const char* ax : {"x", "y", "z"}) {
+    const YAML::Node a = rep["axes"][ax];
+    ASSERT_TRUE(a["quality"]) << ax;
+    EXPECT_EQ(a["quality"].as<std::string>(), "good") << ax << ": " << a["quality_reason"];
+    const std::string reason = a["quality_reason"].as<std::string>();
+    EXPECT_NE(reason.find("rms_log10"), std::string::npos) << reason;
+    const YAML::Node q = a["quantized_output"];
+    ASSERT_TRUE(q) << ax;
+    EXPECT_NEAR(q["quantum"].as<double>() / 1e-4, 1.0, 1e-6) << ax;
+    EXPECT_NEAR(q["pulse_weight"].as<double>() / 1e-6, 1.0, 1e-6) << ax;  // quantum * 0.01 s
+    EXPECT_FALSE(q["sawtooth"].as<bool>()) << ax;
+    EXPECT_EQ(q["sawtooth_hz"].as<double>(), 0.0) << ax;
+    EXPECT_GE(q["fraction_on_lattice"].as<double>(), 0.99) << ax;
+    EXPECT_NE(imu.find(std::string("# Quality gyro ") + ax + ": good (" + reason + ")"), std::string::npos) << imu;
+    EXPECT_NE(r.out.find(std::string("axis ") + ax + ": quantized output: a lattice of 0.0001 rad/s"), std::string::npos)
+        << r.out;
+  }
+  for (const char* ax : {"x", "y", "z"}) {
+    EXPECT_EQ(rep["accelerometer"]["axes"][ax]["quality"].as<std::string>(), "good") << ax;
+    EXPECT_NE(imu.find(std::string("# Quality accelerometer accel_") + ax + ": good ("), std::string::npos) << imu;
+  }
+  // The table's quality column: each gyro row ends with its verdict; nothing is called a bad fit.
+  const std::vector<std::string> out_lines = lines(r.out);
+  int rows = 0;
+  for (const auto& l : out_lines) {
+    if (l.rfind("axis  Q [arcsec]", 0) == 0) {
+      EXPECT_NE(l.find("quality"), std::string::npos) << l;
+    }
+    if (l.size() > 6 && (l.rfind("x ", 0) == 0 || l.rfind("y ", 0) == 0 || l.rfind("z ", 0) == 0)) {
+      ++rows;
+      EXPECT_EQ(l.substr(l.size() - 4), "good") << l;
+    }
+  }
+  EXPECT_EQ(rows, 3) << r.out;
+  EXPECT_EQ(r.out.find("BAD FIT"), std::string::npos) << r.out;
+  EXPECT_EQ(r.err.find("BAD FIT"), std::string::npos) << r.err;
+  EXPECT_EQ(imu.find("BAD FIT"), std::string::npos) << imu;
+}
+
+// An undithered ring-laser gyro (Q = 0.35 arcsec, N = 0.001 deg/sqrt(h), 400 Hz, 10 min, 10 deg/h input) with its
+// pulses kept (--keep-spikes): the joint fit cannot describe the sawtooth quantization (rms_log10 ~0.8). Every output
+// must say bad: a "BAD FIT:" line before each row, the table's column, a warning per axis on stderr and in the
+// report, quality: bad in report.yaml, the Kalibr lines flagged; and the output is called quantized with a sawtooth
+// at the declared pulse rate (10 deg/h / pulse weight = 8.25 Hz).
+TEST_F(Outputs, UnditheredRlgIsABadFitInEveryOutputAndASawtooth) {
+  const std::string csv = kOut + "/rlg_undithered.csv", out = kOut + "/rlg_undithered";
+  const ToolRun s = run(kTools + "/simulate --output " + csv + " --rate 400 --duration 600 --quantization 1.6968e-6 "
+                        "--no-dither --arw 2.909e-7 --input-rate 4.848e-5 --seed 3");
+  ASSERT_EQ(s.code, 0) << s.err;
+  const ToolRun r = run(kTools + "/analyze_bag --csv " + csv + " --keep-spikes --no-plot --output " + out);
+  ASSERT_EQ(r.code, 0) << r.err;
+  const YAML::Node rep = YAML::LoadFile(out + "/report.yaml");
+  const std::string imu = slurp(out + "/imu.yaml");
+  const double pulse_hz = 4.848e-5 / (1.6968e-6 * std::sqrt(12.0));
+  for (const char* ax : {"wx", "wy", "wz"}) {
+    const YAML::Node a = rep["axes"][ax];
+    EXPECT_EQ(a["quality"].as<std::string>(), "bad") << ax;
+    const std::string reason = a["quality_reason"].as<std::string>();
+    EXPECT_NE(reason.find("rms_log10"), std::string::npos) << reason;
+    EXPECT_NE(r.out.find(std::string("BAD FIT: axis ") + ax + ": " + reason), std::string::npos) << r.out;
+    EXPECT_NE(r.err.find(std::string("warning: axis ") + ax + ": BAD FIT ("), std::string::npos) << r.err;
+    EXPECT_NE(imu.find(std::string("# Quality gyro ") + ax + ": BAD ("), std::string::npos) << imu;
+    const YAML::Node q = a["quantized_output"];
+    ASSERT_TRUE(q) << ax;
+    EXPECT_TRUE(q["sawtooth"].as<bool>()) << ax;
+    EXPECT_NEAR(q["sawtooth_hz"].as<double>() / pulse_hz, 1.0, 0.02) << ax;
+  }
+  // The row of a bad axis follows its BAD FIT line and its quality column says BAD.
+  const std::vector<std::string> out_lines = lines(r.out);
+  int rows = 0;
+  for (size_t i = 1; i < out_lines.size(); ++i)
+    if (out_lines[i].rfind("w", 0) == 0 && out_lines[i].size() > 3 && out_lines[i][2] == ' ') {
+      ++rows;
+      EXPECT_EQ(out_lines[i - 1].rfind("BAD FIT: axis " + out_lines[i].substr(0, 2), 0), 0u) << out_lines[i - 1];
+      EXPECT_EQ(out_lines[i].substr(out_lines[i].size() - 3), "BAD") << out_lines[i];
+    }
+  EXPECT_EQ(rows, 3) << r.out;
+  EXPECT_GE(rep["warnings"].size(), 3u);
+  EXPECT_NE(imu.find("gyroscope_noise_density"), std::string::npos);
+  std::string n_line;
+  for (const auto& l : lines(imu))
+    if (l.rfind("gyroscope_noise_density:", 0) == 0) n_line = l;
+  EXPECT_NE(n_line.find("BAD FIT on axis"), std::string::npos) << n_line;
 }
 
 TEST_F(Outputs, PlotScriptWritesPngOfTheDocumentedSize) {

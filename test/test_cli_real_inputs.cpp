@@ -140,8 +140,12 @@ TEST_F(RealInputs, BumpIsCutOutAndSaid) {
   EXPECT_LT(to, 400.0);
   EXPECT_EQ(rep["axes"]["x"]["samples"].as<int64_t>() + rep["motion"]["excluded_samples"].as<int64_t>(),
             rep["stamps"]["kept"].as<int64_t>());
-  for (const char* ax : {"x", "y", "z"})
+  for (const char* ax : {"x", "y", "z"}) {
     EXPECT_NEAR(rep["axes"][ax]["coefficients"]["angle_random_walk"]["value"].as<double>(), 2e-4, 2e-5) << ax;
+    // The verdict says the record was cut (quality.hpp: doubtful at best).
+    EXPECT_EQ(rep["axes"][ax]["quality"].as<std::string>(), "doubtful") << ax;
+    EXPECT_NE(rep["axes"][ax]["quality_reason"].as<std::string>().find("static stretch"), std::string::npos) << ax;
+  }
   EXPECT_NE(slurp(name + "/imu.yaml").find("# Data: the longest static stretch"), std::string::npos);
 }
 

@@ -1,13 +1,16 @@
-// Kalibr imu.yaml: axis rules, bounds, and the units check that Allan N of discrete white noise is sigma_d*sqrt(dt).
+// Kalibr imu.yaml: axis rules, bounds, quality comment lines, and the units check that Allan N of discrete white noise
+// is sigma_d*sqrt(dt).
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <random>
+#include <sstream>
 #include <stdexcept>
 
 #include <yaml-cpp/yaml.h>
 
 #include "gyro_allan/analysis.hpp"
+#include "gyro_allan/io/bag_input.hpp"
 #include "gyro_allan/kalibr.hpp"
 
 using namespace gyro_allan;
@@ -92,4 +95,55 @@ TEST(Kalibr, WhiteNoiseDensityIsDiscreteSigmaTimesSqrtDt) {
   EXPECT_GE(checked, 3);
   // White noise has no rate random walk: written as a bound well below N's scale at 1 s.
   EXPECT_TRUE(p.gyroscope_random_walk.bound || p.gyroscope_random_walk.value < 0.1 * sigma_g);
+  // A clean record: the verdict is good; float noise is not a quantized output.
+  EXPECT_EQ(a.quality.quality, Quality::Good) << a.quality.reason;
+  EXPECT_FALSE(a.quantized.quantized) << a.quantized.summary;
+}
+
+TEST(Kalibr, QualityLinePerAxisAndBadDecidingAxisIsSaid) {
+  std::array<Coefficient, kNumTerms> g{{bound(1e-6), sup(2e-4), sup(1e-5), bound(3e-6), bound(1e-8)}};
+  std::array<Coefficient, kNumTerms> worse{{bound(1e-6), sup(5e-4), sup(1e-5), bound(2e-6), bound(1e-8)}};
+  KalibrParams p = kalibrParams({"x", "y"}, {g, worse}, {}, {}, 200.0, "/imu", KalibrAxisRule::Worst);
+  p.quality.push_back({"gyro", "x", {Quality::Good, "fit error rms_log10 0.010 <= 0.05, chi2/dof 1.1 <= 5"}});
+  p.quality.push_back({"gyro", "y", {Quality::Bad, "the model is off by x1.58 in ADEV (rms_log10 0.200 > 0.15)"}});
+  const std::string text = kalibrYaml(p);
+  EXPECT_NE(text.find("# Quality gyro x: good (fit error rms_log10 0.010"), std::string::npos) << text;
+  EXPECT_NE(text.find("# Quality gyro y: BAD (the model is off by x1.58"), std::string::npos) << text;
+  const YAML::Node y = YAML::Load(text);  // comments only: the values are untouched
+  EXPECT_NEAR(y["gyroscope_noise_density"].as<double>(), 5e-4, 1e-10);
+  EXPECT_NEAR(y["gyroscope_random_walk"].as<double>(), 3e-6, 1e-11);
+  // N is decided by y (bad): its comment says so; K is decided by x (good): no flag.
+  std::string n_line, k_line;
+  std::istringstream lines(text);
+  for (std::string l; std::getline(lines, l);) {
+    if (l.rfind("gyroscope_noise_density:", 0) == 0) n_line = l;
+    if (l.rfind("gyroscope_random_walk:", 0) == 0) k_line = l;
+  }
+  EXPECT_NE(n_line.find("BAD FIT on axis y"), std::string::npos) << n_line;
+  EXPECT_EQ(k_line.find("BAD FIT"), std::string::npos) << k_line;
+  // Mean rule: every value includes y.
+  KalibrParams m = kalibrParams({"x", "y"}, {g, worse}, {}, {}, 200.0, "/imu", KalibrAxisRule::Mean);
+  m.quality = p.quality;
+  const std::string mt = kalibrYaml(m);
+  EXPECT_NE(mt.find("BAD FIT on axis y"), std::string::npos) << mt;
+}
+
+// The bundled bag (bags/default.bag: MEMS gyro, rates rounded to 1e-4 rad/s) axis x, end to end: a good verdict in
+// imu.yaml, and the output recognised as a 1e-4 rad/s lattice without sawtooth.
+TEST(Kalibr, DefaultBagVerdictAndQuantizedOutput) {
+  BagReadOptions bo;
+  bo.progress = false;
+  const ImuSeries s = readImuBags({std::string(GYRO_ALLAN_SOURCE_DIR) + "/bags/default.bag"}, bo);
+  const std::vector<std::vector<double>> seg{s.gyro[0].toVector()};
+  const AxisAnalysis a = analyzeAxis("x", seg, 0.01, AnalysisOptions());
+  EXPECT_EQ(a.quality.quality, Quality::Good) << a.quality.reason;
+  EXPECT_NE(a.quality.reason.find("rms_log10"), std::string::npos) << a.quality.reason;
+  EXPECT_TRUE(a.quantized.quantized) << a.quantized.summary;
+  EXPECT_NEAR(a.quantized.quantum_rate / 1e-4, 1.0, 1e-6) << a.quantized.summary;
+  EXPECT_FALSE(a.quantized.sawtooth) << a.quantized.summary;
+  KalibrParams p = kalibrParams({"x"}, {a.coefficients}, {}, {}, 100.0, s.topic, KalibrAxisRule::Worst);
+  p.quality.push_back({"gyro", "x", a.quality});
+  const std::string text = kalibrYaml(p);
+  EXPECT_NE(text.find("# Quality gyro x: good (" + a.quality.reason + ")"), std::string::npos) << text;
+  EXPECT_EQ(text.find("BAD FIT"), std::string::npos) << text;
 }

@@ -8,6 +8,8 @@
 #include "gyro_allan/allan.hpp"
 #include "gyro_allan/model_check.hpp"
 #include "gyro_allan/noise_model.hpp"
+#include "gyro_allan/quality.hpp"
+#include "gyro_allan/quantized_output.hpp"
 #include "gyro_allan/spikes.hpp"
 #include "gyro_allan/wavelet_split.hpp"
 
@@ -66,6 +68,10 @@ struct AxisAnalysis {
   bool has_with_spikes = false;
   std::array<Coefficient, kNumTerms> coefficients_with_spikes;
   FitError error_with_spikes;       ///< rms_log10 / chi2_dof of that fit
+  /// Rate input: is the output on a lattice (pulse counter, ADC LSB), and an undithered counter's sawtooth?
+  /// (quantized_output.hpp; on the longest gap-free segment, as read: before spike removal)
+  QuantizedOutput quantized;
+  QualityVerdict quality;           ///< verdict on `coefficients` (quality.hpp), set by finish()
 };
 
 /// Validates options (throws std::invalid_argument naming the problem) and analyses one axis.

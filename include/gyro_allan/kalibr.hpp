@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "gyro_allan/noise_model.hpp"
+#include "gyro_allan/quality.hpp"
 
 namespace gyro_allan {
 
@@ -31,6 +32,13 @@ struct KalibrValue {
   bool present = false;  ///< false: no data for this sensor (e.g. CSV input has no accelerometer)
 };
 
+/// The quality verdict of one axis behind the numbers (quality.hpp), written as a comment line.
+struct KalibrAxisQuality {
+  std::string sensor;  ///< "gyro" or "accelerometer"
+  std::string axis;    ///< the axis name as in kalibrParams (e.g. "x", "accel_x")
+  QualityVerdict verdict;
+};
+
 struct KalibrParams {
   KalibrValue gyroscope_noise_density;      ///< = N, angle random walk [rad/s/sqrt(Hz)] = [rad/sqrt(s)]
   KalibrValue gyroscope_random_walk;        ///< = K, rate random walk [rad/s^2/sqrt(Hz)] = [rad/s/sqrt(s)]
@@ -40,6 +48,9 @@ struct KalibrParams {
   std::string rostopic;
   KalibrAxisRule rule = KalibrAxisRule::Worst;
   std::string data_note;   ///< one comment line on what the values come from (e.g. the static stretch used); may be empty
+  /// Verdict per axis (may be empty): one comment line each, and a value decided by (worst rule) or including (mean
+  /// rule) a bad axis says so in its comment.
+  std::vector<KalibrAxisQuality> quality;
 };
 
 /// Combines one term over axes: each axis contributes its value when supported, else its 1-sigma bound.

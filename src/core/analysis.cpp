@@ -79,6 +79,7 @@ void AxisStages::prepare() {
   if (a.samples < 3) throw std::invalid_argument("axis " + axis + ": too few samples (" + std::to_string(a.samples) + ")");
   a.mean = static_cast<double>(sum / a.samples);
   a.duration_s = static_cast<double>(a.samples) * tau0;
+  if (options.input == InputKind::Rate) a.quantized = detectQuantizedOutput(segments, tau0);  // before spike removal
   if (spikes_on) removeSegmentSpikes();
   a.oadev = computeDeviation("oadev", segments, options.input, tau0, options.deviation);
   raw_oadev_ = a.oadev;  // as computed, for the wavelet split's own fit error
@@ -278,6 +279,7 @@ AxisAnalysis AxisStages::finish() {
     a.final_model_var = a.fit.model_var;
     a.final_error = {a.fit.rms_log10, a.fit.chi2_dof, a.fit.n_rms};
   }
+  a.quality = assessQuality(a);
   return std::move(a_);
 }
 

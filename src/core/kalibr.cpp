@@ -88,8 +88,17 @@ KalibrParams kalibrParams(const std::vector<std::string>& gyro_axes,
 
 namespace {
 
+/// The bad axes of one sensor that decided (worst rule: the deciding axis) or entered (mean rule) a value.
+std::string badAxes(const KalibrParams& p, const std::string& sensor, const KalibrValue& v) {
+  std::string out;
+  for (const auto& q : p.quality)
+    if (q.sensor == sensor && q.verdict.quality == Quality::Bad && (v.axis == "rms" || v.axis == q.axis))
+      out += (out.empty() ? "" : ", ") + q.axis;
+  return out;
+}
+
 void line(std::ostringstream& o, const char* key, const KalibrValue& v, const char* unit, const char* source,
-          const char* missing) {
+          const char* missing, const std::string& bad = "") {
   char buf[64];
   if (!v.present) {
     o << "# " << key << ": not measured (" << missing << ")\n";
@@ -100,6 +109,7 @@ void line(std::ostringstream& o, const char* key, const KalibrValue& v, const ch
   if (v.axis == "rms") o << ", quadratic mean over axes";
   else o << ", axis " << v.axis << " (largest)";
   if (v.bound) o << "; NOT SUPPORTED by the data: this is the 1-sigma upper bound, the true value may be smaller";
+  if (!bad.empty()) o << "; BAD FIT on axis " << bad << ": not a measurement, see the quality lines above";
   o << "\n";
 }
 
@@ -111,19 +121,25 @@ std::string kalibrYaml(const KalibrParams& p) {
        "# Allan N (ARW) and K (rate random walk) ARE Kalibr's sigma_g and sigma_bg: no sqrt(2), no sqrt(rate).\n"
        "# Static-bench values: inflate deliberately (and say by how much) for a vibrating or heated platform.\n";
   if (!p.data_note.empty()) o << "# Data: " << p.data_note << "\n";
+  for (const auto& q : p.quality)
+    o << "# Quality " << q.sensor << " " << q.axis << ": "
+      << (q.verdict.quality == Quality::Bad ? "BAD" : qualityName(q.verdict.quality)) << " (" << q.verdict.reason
+      << ")\n";
   o << "rostopic: " << (p.rostopic.empty() ? "/imu" : p.rostopic)
     << (p.rostopic.empty() ? "  # input was not a bag: set your IMU topic" : "") << "\n";
   char buf[64];
   std::snprintf(buf, sizeof buf, "%.6g", p.update_rate_hz);
   o << "update_rate: " << buf << "  # Hz, nominal sample rate of the data\n";
   line(o, "gyroscope_noise_density", p.gyroscope_noise_density, "rad/s/sqrt(Hz)", "Allan N (angle random walk)",
-       "no gyro data");
+       "no gyro data", badAxes(p, "gyro", p.gyroscope_noise_density));
   line(o, "gyroscope_random_walk", p.gyroscope_random_walk, "rad/s^2/sqrt(Hz)", "Allan K (rate random walk)",
-       "no gyro data");
+       "no gyro data", badAxes(p, "gyro", p.gyroscope_random_walk));
   line(o, "accelerometer_noise_density", p.accelerometer_noise_density, "m/s^2/sqrt(Hz)",
-       "Allan N of the accelerometer (velocity random walk)", "no accelerometer data: CSV input or --no-accel");
+       "Allan N of the accelerometer (velocity random walk)", "no accelerometer data: CSV input or --no-accel",
+       badAxes(p, "accelerometer", p.accelerometer_noise_density));
   line(o, "accelerometer_random_walk", p.accelerometer_random_walk, "m/s^3/sqrt(Hz)",
-       "Allan K of the accelerometer (acceleration random walk)", "no accelerometer data: CSV input or --no-accel");
+       "Allan K of the accelerometer (acceleration random walk)", "no accelerometer data: CSV input or --no-accel",
+       badAxes(p, "accelerometer", p.accelerometer_random_walk));
   return o.str();
 }
 

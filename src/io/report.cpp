@@ -157,6 +157,46 @@ YAML::Node fitNode(const FitResult& fit) {
   return n;
 }
 
+/// report.yaml `quantized_output:` of an axis whose output is on a lattice (quantized_output.hpp).
+YAML::Node quantizedNode(const QuantizedOutput& q) {
+  YAML::Node n;
+  n["quantum"] = num(q.quantum_rate);
+  n["quantum_unit"] = "rad/s";
+  n["pulse_weight"] = num(q.pulse_weight);
+  n["pulse_weight_unit"] = "rad";
+  n["offset"] = num(q.offset);
+  n["fraction_on_lattice"] = num(q.fraction_on_lattice);
+  n["levels"] = q.levels;
+  n["sawtooth"] = q.sawtooth;
+  n["sawtooth_hz"] = num(q.sawtooth_hz);
+  n["two_level_fraction"] = num(q.two_level_fraction);
+  n["alias_hz"] = num(q.alias_hz);
+  n["line_to_floor"] = num(q.line_to_floor);
+  n["summary"] = q.summary;
+  return n;
+}
+
+/// Quality fields of an axis node.
+void addQuality(YAML::Node* n, const AxisAnalysis& a) {
+  (*n)["quality"] = qualityName(a.quality.quality);
+  (*n)["quality_reason"] = a.quality.reason;
+}
+
+/// Printed lines after a table: the verdict of each axis that is not good, and (gyro) the quantized-output line.
+std::string qualityLines(const std::vector<AxisAnalysis>& axes, bool quantized) {
+  std::string o;
+  for (const auto& a : axes) {
+    if (a.quality.quality == Quality::Doubtful) o += "quality: axis " + a.axis + " doubtful: " + a.quality.reason + "\n";
+    if (quantized && a.quantized.quantized) o += "axis " + a.axis + ": " + a.quantized.summary + "\n";
+  }
+  return o;
+}
+
+/// The line printed before the row of a bad axis, so that its coefficients never read as a plain answer.
+std::string badFitLine(const AxisAnalysis& a) {
+  return "BAD FIT: axis " + a.axis + ": " + a.quality.reason + " -- the coefficients below are not a measurement:\n";
+}
+
 void jsonString(std::ostringstream& o, const std::string& s) {
   o << '"';
   for (char ch : s) {
@@ -287,6 +327,8 @@ YAML::Node buildReport(const ReportMeta& meta, const std::vector<AxisAnalysis>& 
     n["method_reason"] = a.method_reason;
     n["coefficients"] = coefficientsNode(a.coefficients);
     n["fit"] = errorNode(a.final_error.rms_log10, a.final_error.chi2_dof);
+    addQuality(&n, a);
+    if (a.quantized.quantized) n["quantized_output"] = quantizedNode(a.quantized);
     YAML::Node jf;
     jf["coefficients"] = coefficientsNode(a.fit);
     jf["fit"] = fitNode(a.fit);
@@ -362,15 +404,18 @@ std::string summaryTable(const std::vector<AxisAnalysis>& axes) {
   const char* short_names[] = {"Q", "N", "B", "K", "R"};
   for (int t = 0; t < kNumTerms; ++t)
     o << std::setw(24) << (std::string(short_names[t]) + " [" + conventionalUnit(t) + "]");
-  o << std::setw(11) << "rms_log10" << std::setw(10) << "chi2/dof" << "method\n";
+  o << std::setw(11) << "rms_log10" << std::setw(10) << "chi2/dof" << std::setw(15) << "method" << "quality\n";
   for (const auto& a : axes) {
+    if (a.quality.quality == Quality::Bad) o << badFitLine(a);
     o << std::setw(6) << a.axis;
     for (int t = 0; t < kNumTerms; ++t) o << std::setw(24) << fmtCoef(a.coefficients[static_cast<size_t>(t)], conventionalFactor(t));
     char buf[96];
-    std::snprintf(buf, sizeof buf, "%-11.4f%-10.3g%s", a.final_error.rms_log10, a.final_error.chi2_dof, a.method.c_str());
+    std::snprintf(buf, sizeof buf, "%-11.4f%-10.3g%-15s%s", a.final_error.rms_log10, a.final_error.chi2_dof,
+                  a.method.c_str(), a.quality.quality == Quality::Bad ? "BAD" : qualityName(a.quality.quality));
     o << buf << "\n";
   }
   o << "(value +- 1 sigma; 0 (<b): not supported by the data, b = 1-sigma upper bound)\n";
+  o << qualityLines(axes, true);
   // Spikes: how many were removed and what N the plain joint fit gives with them left in (x: ratio to the joint fit
   // without them).
   for (const auto& a : axes) o << spikesLine(a, "N", conventionalFactor(kAngleRandomWalk), conventionalUnit(kAngleRandomWalk), "rad/s");
@@ -428,6 +473,7 @@ YAML::Node accelerometerNode(const std::vector<AxisAnalysis>& axes, const std::v
     }
     n["coefficients"] = c;
     n["fit"] = errorNode(a.final_error.rms_log10, a.final_error.chi2_dof);
+    addQuality(&n, a);
     if (a.spikes_checked) n["spikes"] = spikesNode(a, accelConventionalFactor, accelConventionalUnit, accelTermUnit, "m_s2");
     r["axes"][key] = n;
   }
@@ -440,15 +486,18 @@ std::string accelSummaryTable(const std::vector<AxisAnalysis>& axes) {
   const char* short_names[] = {"Q", "VRW", "B", "AccRW", "R"};
   for (int t = 0; t < kNumTerms; ++t)
     o << std::setw(24) << (std::string(short_names[t]) + " [" + accelConventionalUnit(t) + "]");
-  o << std::setw(11) << "rms_log10" << "\n";
+  o << std::setw(11) << "rms_log10" << "quality\n";
   for (const auto& a : axes) {
+    if (a.quality.quality == Quality::Bad) o << badFitLine(a);
     o << std::setw(8) << a.axis;
     for (int t = 0; t < kNumTerms; ++t)
       o << std::setw(24) << fmtCoef(a.coefficients[static_cast<size_t>(t)], accelConventionalFactor(t));
-    char buf[32];
-    std::snprintf(buf, sizeof buf, "%-11.4f", a.final_error.rms_log10);
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "%-11.4f%s", a.final_error.rms_log10,
+                  a.quality.quality == Quality::Bad ? "BAD" : qualityName(a.quality.quality));
     o << buf << "\n";
   }
+  o << qualityLines(axes, false);  // quantized output: a gyro question (pulse counters), not shown here
   for (const auto& a : axes)
     o << spikesLine(a, "VRW", accelConventionalFactor(kAngleRandomWalk), accelConventionalUnit(kAngleRandomWalk),
                     "m/s^2");

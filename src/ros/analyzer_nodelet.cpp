@@ -259,6 +259,7 @@ void AnalyzerNodelet::onInit() {
   updater_->add("window", this, &AnalyzerNodelet::diagWindow);
   updater_->add("motion", this, &AnalyzerNodelet::diagMotion);
   updater_->add("fit quality", this, &AnalyzerNodelet::diagFit);
+  updater_->add("quality verdict", this, &AnalyzerNodelet::diagQuality);
   for (int t = 0; t < kNumTerms; ++t) {
     updater_->add(kTermLabel[t], [this, t](diagnostic_updater::DiagnosticStatusWrapper& s) { diagTerm(t, s); });
   }
@@ -699,6 +700,7 @@ FitResult AnalyzerNodelet::fitWithNoiseId(DeviationCurve* c) const {
 
 void AnalyzerNodelet::publishResults(const Snapshot& snap) {
   std::array<FitResult, 3> fits;
+  std::array<QualityVerdict, 3> verdicts;
   NoiseReport report;
   report.header.stamp = snap.window_end;
   report.header.frame_id = snap.frame_id;
@@ -725,7 +727,9 @@ void AnalyzerNodelet::publishResults(const Snapshot& snap) {
       fits[a].message = e.what();
     }
     std::vector<double> denoised_adev, removed_adev;
+    QualityContext quality_context;  // what the verdict cannot see in the answer's FitResult
     if (p_.method == "wavelet_split") {
+      const FitResult joint = fits[a];
       std::string why;
       if (snap.raw[a].size() < 1024) {
         why = "too few gap-free samples for the wavelet split";
@@ -741,6 +745,12 @@ void AnalyzerNodelet::publishResults(const Snapshot& snap) {
             f.terms = ws.terms;
             f.rms_log10 = ws.fit_error.rms_log10;
             f.chi2_dof = ws.fit_error.chi2_dof;
+            f.n_rms = ws.fit_error.n_rms;
+            if (joint.ok) {  // the two methods' N side by side, as analyze_bag compares them
+              quality_context.compare_methods = true;
+              quality_context.joint_fit_n = joint.terms[kAngleRandomWalk];
+              quality_context.wavelet_split_n = ws.terms[kAngleRandomWalk];
+            }
             f.model_var.assign(c.points.size(), 0.0);
             for (size_t i = 0; i < c.points.size(); ++i)
               for (int t = 0; t < kNumTerms; ++t)
@@ -798,6 +808,7 @@ void AnalyzerNodelet::publishResults(const Snapshot& snap) {
       }
     }
     const FitResult& f = fits[a];
+    verdicts[a] = assessQuality(f, quality_context);
     axis.fit_ok = f.ok;
     axis.message = f.ok ? "" : (f.message.empty() ? "fit failed" : f.message);
     axis.quantization = toMsg(f.terms[kQuantization]);
@@ -838,6 +849,7 @@ void AnalyzerNodelet::publishResults(const Snapshot& snap) {
   std::lock_guard<std::mutex> lock(work_mutex_);
   last_fit_.have = true;
   last_fit_.fits = fits;
+  last_fit_.quality = verdicts;
   last_fit_.stamp = snap.window_end;
   ++fits_done_;
 }
@@ -1021,6 +1033,37 @@ void AnalyzerNodelet::diagFit(diagnostic_updater::DiagnosticStatusWrapper& stat)
   }
   stat.summary(static_cast<unsigned char>(level), msg);
   stat.add("fits published", fits_done_);
+}
+
+void AnalyzerNodelet::diagQuality(diagnostic_updater::DiagnosticStatusWrapper& stat) {
+  // The verdict rule analyze_bag writes into report.yaml (quality.hpp): doubtful -> WARN, bad -> ERROR, with the
+  // worst axis's reason in the message.
+  std::lock_guard<std::mutex> lock(work_mutex_);
+  if (!last_fit_.have) {
+    stat.summary(diagnostic_msgs::DiagnosticStatus::OK, "no fit yet (window filling)");
+    return;
+  }
+  int worst = -1;
+  std::string others;
+  for (int a = 0; a < 3; ++a) {
+    const QualityVerdict& v = last_fit_.quality[a];
+    const std::string ax = kAxisName[a];
+    stat.add(ax + " quality", qualityName(v.quality));
+    stat.add(ax + " quality reason", v.reason);
+    if (worst < 0 || v.quality > last_fit_.quality[worst].quality) worst = a;
+  }
+  for (int a = 0; a < 3; ++a)
+    if (a != worst && last_fit_.quality[a].quality != Quality::Good)
+      others += std::string(others.empty() ? "" : ", ") + kAxisName[a] + " " + qualityName(last_fit_.quality[a].quality);
+  const QualityVerdict& w = last_fit_.quality[worst];
+  if (w.quality == Quality::Good) {
+    stat.summary(diagnostic_msgs::DiagnosticStatus::OK, "every axis good");
+    return;
+  }
+  const unsigned char level =
+      w.quality == Quality::Bad ? diagnostic_msgs::DiagnosticStatus::ERROR : diagnostic_msgs::DiagnosticStatus::WARN;
+  stat.summary(level, std::string(w.quality == Quality::Bad ? "BAD FIT" : "doubtful") + " on axis " +
+                          kAxisName[worst] + ": " + w.reason + (others.empty() ? "" : " (also " + others + ")"));
 }
 
 void AnalyzerNodelet::diagTerm(int term, diagnostic_updater::DiagnosticStatusWrapper& stat) {

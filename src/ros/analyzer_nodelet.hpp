@@ -22,6 +22,7 @@
 
 #include "gyro_allan/allan.hpp"
 #include "gyro_allan/noise_model.hpp"
+#include "gyro_allan/quality.hpp"
 #include "gyro_allan/rest.hpp"
 #include "gyro_allan/sliding_allan.hpp"
 #include "gyro_allan/spikes.hpp"
@@ -90,6 +91,7 @@ class AnalyzerNodelet : public nodelet::Nodelet {
   struct FitSummary {
     bool have = false;
     std::array<FitResult, 3> fits;
+    std::array<QualityVerdict, 3> quality;  ///< assessQuality of each axis's answer (quality.hpp)
     ros::Time stamp;
   };
 
@@ -141,6 +143,7 @@ class AnalyzerNodelet : public nodelet::Nodelet {
   void diagMotion(diagnostic_updater::DiagnosticStatusWrapper& stat);
   void diagWindow(diagnostic_updater::DiagnosticStatusWrapper& stat);
   void diagFit(diagnostic_updater::DiagnosticStatusWrapper& stat);
+  void diagQuality(diagnostic_updater::DiagnosticStatusWrapper& stat);
   void diagTerm(int term, diagnostic_updater::DiagnosticStatusWrapper& stat);
 
   AnalyzerParams p_;

@@ -339,6 +339,22 @@ void profileStage(const char* stage) {
 #endif
 }
 
+/// Only the longest static stretch was analysed: said in the axis's notes, and the verdict is judged again with it.
+void noteStaticStretch(const ReportMeta& meta, AxisAnalysis* a) {
+  if (!meta.rest_restricted) return;
+  char buf[200];
+  std::snprintf(buf, sizeof buf, "%s, %.1f-%.1f s (the sensor moved outside it)", kStaticStretchNote,
+                meta.rest_from_s, meta.rest_to_s);
+  a->notes.push_back(buf);
+  a->quality = assessQuality(*a);
+}
+
+/// The warning for an axis whose verdict is bad (stderr and report.yaml warnings).
+std::string badFitWarning(const AxisAnalysis& a) {
+  return "axis " + a.axis + ": BAD FIT (" + a.quality.reason +
+         "): its coefficients, and any imu.yaml value it decides, are not a measurement";
+}
+
 /// Runs tasks on up to `jobs` threads (0 = one per core): task k starts once every task in deps[k] has finished,
 /// and a free thread always takes the ready task with the lowest index (so one thread runs them in index order).
 /// After a failure no new task starts; the failure of the lowest-index task is rethrown.
@@ -617,6 +633,7 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
     tasks.push_back([&, a] {
       results[a] = stages[a]->finish();
       stages[a].reset();
+      noteStaticStretch(meta, &results[a]);
     });
     deps.push_back({tasks.size() - 3, tasks.size() - 2});
   }
@@ -669,6 +686,7 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
           AxisStages st("accel_" + names[a], std::move(segs), tau0, ao);
           st.prepare();
           accel_results[a] = st.finish();  // joint fit only: no split or model check
+          noteStaticStretch(meta, &accel_results[a]);
         } catch (const std::exception& e) {
           accel_errors[a] = e.what();
         }
@@ -692,6 +710,8 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
   for (const auto& w : axis_warnings) meta.warnings.insert(meta.warnings.end(), w.begin(), w.end());
   for (const auto& r : results)
     if (r.spikes_checked && r.spikes.count > 0) meta.warnings.push_back(spikeWarning(r));
+  for (const auto& r : results)
+    if (r.quality.quality == Quality::Bad) meta.warnings.push_back(badFitWarning(r));
   for (const auto& e : accel_errors)
     if (accel_error.empty() && !e.empty()) accel_error = e;
   if (!accel_error.empty()) {
@@ -699,6 +719,8 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
     accel_means.clear();
     meta.warnings.push_back("accelerometer not analysed: " + accel_error);
   }
+  for (const auto& r : accel_results)
+    if (r.quality.quality == Quality::Bad) meta.warnings.push_back(badFitWarning(r));
   profileStage("analysis");
   for (const auto& w : meta.warnings)
     if (!args.quiet) std::cerr << "analyze_bag: warning: " << w << "\n";
@@ -719,6 +741,8 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
     for (const auto& a : accel_results) accel_axes.push_back(a.axis), accel_c.push_back(a.coefficients);
     KalibrParams kp = kalibrParams(gyro_axes, gyro_c, accel_axes, accel_c, 1.0 / tau0, meta.topic,
                                    parseKalibrAxisRule(args.kalibr_axis));
+    for (const auto& a : results) kp.quality.push_back({"gyro", a.axis, a.quality});
+    for (const auto& a : accel_results) kp.quality.push_back({"accelerometer", a.axis, a.quality});
     if (meta.rest_restricted) {
       char note[200];
       std::snprintf(note, sizeof note, "the longest static stretch, %.1f-%.1f s of the record (the sensor moved outside it)",
@@ -785,7 +809,7 @@ int runBatch(const Args& args) {
   }
   std::ostringstream csv;
   csv << "bag,sensor,axis,status,quantization,angle_random_walk,bias_instability,rate_random_walk,rate_ramp,"
-         "unsupported,rms_log10,method,error\n";
+         "unsupported,rms_log10,method,quality,error\n";
   int failed = 0;
   for (const auto& name : bags) {
     Args sub = args;
@@ -805,7 +829,7 @@ int runBatch(const Args& args) {
     if (!args.quiet) std::fprintf(stderr, "analyze_bag: batch: %s: %s\n", name.c_str(), error.empty() ? "ok" : error.c_str());
     if (!error.empty()) {
       ++failed;
-      csv << csvField(name) << ",,,failed,,,,,,,,," << csvField(error) << "\n";
+      csv << csvField(name) << ",,,failed,,,,,,,,,," << csvField(error) << "\n";
       continue;
     }
     auto rows = [&](const std::vector<AxisAnalysis>& axes, const char* sensor) {
@@ -822,7 +846,7 @@ int runBatch(const Args& args) {
           if (!c.supported) unsupported += std::string(unsupported.empty() ? "" : " ") + noiseTermKey(t);
         }
         std::snprintf(buf, sizeof buf, ",%.4f", a.final_error.rms_log10);
-        csv << ',' << unsupported << buf << ',' << a.method << ",\n";
+        csv << ',' << unsupported << buf << ',' << a.method << ',' << qualityName(a.quality.quality) << ",\n";
       }
     };
     rows(gyro, "gyro");

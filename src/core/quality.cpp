@@ -1,0 +1,132 @@
+// Quality verdict of an axis's answer: gross misfit or nothing supported -> bad, moderate misfit or warning signs ->
+// doubtful, else good; the reason names the numbers.
+#include "gyro_allan/quality.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <vector>
+
+#include "gyro_allan/analysis.hpp"
+
+namespace gyro_allan {
+
+const char* const kStaticStretchNote = "only the longest static stretch of the record was analysed";
+
+const char* qualityName(Quality q) {
+  switch (q) {
+    case Quality::Good: return "good";
+    case Quality::Doubtful: return "doubtful";
+    case Quality::Bad: return "bad";
+  }
+  return "bad";
+}
+
+namespace {
+
+std::string fmt(const char* f, double a, double b = 0, double c = 0, double d = 0) {
+  char buf[200];
+  std::snprintf(buf, sizeof buf, f, a, b, c, d);
+  return buf;
+}
+
+std::string join(const std::vector<std::string>& parts) {
+  std::string s;
+  for (const auto& p : parts) s += (s.empty() ? "" : "; ") + p;
+  return s;
+}
+
+/// The shared rule. `ok`/`failure`: whether the answering method succeeded and why not; `n_rms`: points in rms_log10.
+QualityVerdict judge(bool ok, const std::string& failure, const std::array<Coefficient, kNumTerms>& terms,
+                     double rms_log10, double chi2_dof, int n_rms, const QualityContext& ctx) {
+  using namespace quality_limits;
+  QualityVerdict v;
+  if (!ok) {
+    v.quality = Quality::Bad;
+    v.reason = "the fit failed" + (failure.empty() ? std::string() : ": " + failure);
+    return v;
+  }
+  std::vector<std::string> bad, doubtful;
+  bool any_supported = false;
+  for (const auto& c : terms) any_supported = any_supported || c.supported;
+  if (!any_supported) bad.push_back("no noise term is supported by the data (every coefficient is only a bound)");
+  if (!std::isfinite(rms_log10) || !std::isfinite(chi2_dof))
+    bad.push_back("the fit error is not finite (rms_log10 " + fmt("%g", rms_log10) + ", chi2/dof " + fmt("%g", chi2_dof) + ")");
+  else {
+    if (rms_log10 > kBadRmsLog10)
+      bad.push_back(fmt("the model is off by x%.2f in ADEV (rms_log10 %.3f > %.2f)", std::pow(10.0, rms_log10),
+                        rms_log10, kBadRmsLog10));
+    else if (rms_log10 > kDoubtfulRmsLog10)
+      doubtful.push_back(fmt("the model is off by x%.2f in ADEV (rms_log10 %.3f > %.2f)", std::pow(10.0, rms_log10),
+                             rms_log10, kDoubtfulRmsLog10));
+    if (chi2_dof > kBadChi2Dof)
+      bad.push_back(fmt("chi2/dof %.3g > %.3g", chi2_dof, kBadChi2Dof));
+    else if (chi2_dof > kDoubtfulChi2Dof)
+      doubtful.push_back(fmt("chi2/dof %.3g > %.3g", chi2_dof, kDoubtfulChi2Dof));
+  }
+  if (!bad.empty()) {
+    v.quality = Quality::Bad;
+    v.reason = join(bad);
+    return v;
+  }
+  if (n_rms <= 0) doubtful.push_back("no tau point has enough degrees of freedom for rms_log10");
+  if (ctx.static_stretch) doubtful.push_back("the sensor moved: only the longest static stretch was analysed");
+  if (ctx.samples > 0 && ctx.spikes > 0) {
+    const double f = static_cast<double>(ctx.spikes) / static_cast<double>(ctx.samples);
+    if (f > kDoubtfulSpikeFraction)
+      doubtful.push_back(fmt("%.0f spikes replaced (%.2f %% of the samples > %.2f %%)", static_cast<double>(ctx.spikes),
+                             100 * f, 100 * kDoubtfulSpikeFraction));
+  }
+  if (ctx.compare_methods) {
+    // Value when supported, else the 1-sigma bound. Both bounds: nothing to compare; one bound: only a supported
+    // value above kDoubtfulMethodRatio x the other's bound contradicts it.
+    const Coefficient &j = ctx.joint_fit_n, &s = ctx.wavelet_split_n;
+    const double xj = j.supported ? j.value : j.sigma, xs = s.supported ? s.value : s.sigma;
+    bool differ = false;
+    if (j.supported && s.supported) differ = xj > kDoubtfulMethodRatio * xs || xs > kDoubtfulMethodRatio * xj;
+    else if (j.supported && !s.supported) differ = xj > kDoubtfulMethodRatio * xs;
+    else if (!j.supported && s.supported) differ = xs > kDoubtfulMethodRatio * xj;
+    if (differ && xj > 0 && xs > 0) {
+      const double r = xj > xs ? xj / xs : xs / xj;
+      doubtful.push_back(fmt("joint_fit and wavelet_split disagree on N by x%.2f (%.3g vs %.3g rad/sqrt(s))", r, xj, xs) +
+                         (j.supported && s.supported ? "" : ", one of them a bound") +
+                         fmt(" > x%.3g", kDoubtfulMethodRatio));
+    }
+  }
+  if (!doubtful.empty()) {
+    v.quality = Quality::Doubtful;
+    v.reason = join(doubtful);
+    return v;
+  }
+  v.quality = Quality::Good;
+  v.reason = fmt("fit error rms_log10 %.3f <= %.2f, chi2/dof %.3g <= %.3g", rms_log10, kDoubtfulRmsLog10, chi2_dof,
+                 kDoubtfulChi2Dof);
+  return v;
+}
+
+}  // namespace
+
+QualityVerdict assessQuality(const AxisAnalysis& a) {
+  QualityContext ctx;
+  ctx.samples = a.samples;
+  ctx.spikes = a.spikes_checked ? a.spikes.count : 0;
+  for (const auto& n : a.notes) ctx.static_stretch = ctx.static_stretch || n.find(kStaticStretchNote) != std::string::npos;
+  const bool split_ok = a.has_split && a.split.ok;
+  if (a.fit.ok && split_ok) {
+    ctx.compare_methods = true;
+    ctx.joint_fit_n = a.fit.terms[kAngleRandomWalk];
+    ctx.wavelet_split_n = a.split.terms[kAngleRandomWalk];
+  }
+  bool ok = a.fit.ok;
+  std::string failure = a.fit.message;
+  if (a.method == "wavelet_split") {
+    ok = split_ok;
+    failure = a.has_split ? a.split.message : "wavelet split not run";
+  }
+  return judge(ok, failure, a.coefficients, a.final_error.rms_log10, a.final_error.chi2_dof, a.final_error.n_rms, ctx);
+}
+
+QualityVerdict assessQuality(const FitResult& fit, const QualityContext& context) {
+  return judge(fit.ok, fit.message, fit.terms, fit.rms_log10, fit.chi2_dof, fit.n_rms, context);
+}
+
+}  // namespace gyro_allan

@@ -1,0 +1,139 @@
+// assessQuality: a clean simulated record is good; hand-made analyses with gross errors are bad, with moderate ones or
+// warning signs doubtful, each with a reason that names the numbers; the FitResult overload applies the same rule.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "gyro_allan/analysis.hpp"
+#include "gyro_allan/quality.hpp"
+#include "gyro_allan/simulate.hpp"
+
+using namespace gyro_allan;
+
+namespace {
+
+bool has(const std::string& s, const std::string& what) { return s.find(what) != std::string::npos; }
+
+/// A hand-made analysis whose joint fit answered: N supported, the given fit error.
+AxisAnalysis handMade(double rms_log10, double chi2_dof) {
+  AxisAnalysis a;
+  a.axis = "x";
+  a.samples = 100000;
+  a.method = "joint_fit";
+  a.fit.ok = true;
+  a.fit.terms[kAngleRandomWalk] = {2e-4, 1e-6, true};
+  a.fit.rms_log10 = rms_log10;
+  a.fit.chi2_dof = chi2_dof;
+  a.fit.n_rms = 12;
+  a.coefficients = a.fit.terms;
+  a.final_error = {rms_log10, chi2_dof, 12};
+  return a;
+}
+
+}  // namespace
+
+TEST(Quality, CleanSimulatedRecordIsGood) {
+  // The bundled bag's MEMS gyro (N 2e-4, B 2e-5, K 2e-6; 100 Hz, 30 min), whole pipeline.
+  AxisNoise n;
+  n.angle_random_walk = 2e-4;
+  n.bias_instability = 2e-5;
+  n.rate_random_walk = 2e-6;
+  const std::vector<std::vector<double>> seg{simulateAxis(n, 100, 180000, 2026)};
+  const AxisAnalysis a = analyzeAxis("x", seg, 0.01, AnalysisOptions());
+  EXPECT_EQ(a.quality.quality, Quality::Good) << a.quality.reason;
+  EXPECT_TRUE(has(a.quality.reason, "rms_log10")) << a.quality.reason;
+  EXPECT_STREQ(qualityName(a.quality.quality), "good");
+}
+
+TEST(Quality, GrossErrorsAreBadWithTheNumbers) {
+  const QualityVerdict v = assessQuality(handMade(0.3, 2.0));
+  EXPECT_EQ(v.quality, Quality::Bad);
+  EXPECT_TRUE(has(v.reason, "0.300")) << v.reason;  // the rms_log10
+  EXPECT_TRUE(has(v.reason, "x2.00")) << v.reason;  // 10^0.3: the model is off by a factor 2 in ADEV
+  EXPECT_STREQ(qualityName(v.quality), "bad");
+
+  const QualityVerdict c = assessQuality(handMade(0.02, 400.0));
+  EXPECT_EQ(c.quality, Quality::Bad);
+  EXPECT_TRUE(has(c.reason, "chi2/dof 400")) << c.reason;
+
+  AxisAnalysis failed = handMade(0.01, 1.0);
+  failed.fit.ok = false;
+  failed.fit.message = "too few points";
+  const QualityVerdict f = assessQuality(failed);
+  EXPECT_EQ(f.quality, Quality::Bad);
+  EXPECT_TRUE(has(f.reason, "too few points")) << f.reason;
+
+  AxisAnalysis none = handMade(0.01, 1.0);
+  for (auto& t : none.coefficients) t = {0, 1e-5, false};
+  const QualityVerdict u = assessQuality(none);
+  EXPECT_EQ(u.quality, Quality::Bad);
+  EXPECT_TRUE(has(u.reason, "no noise term is supported")) << u.reason;
+
+  AxisAnalysis nan = handMade(std::nan(""), 1.0);
+  EXPECT_EQ(assessQuality(nan).quality, Quality::Bad);
+
+  // wavelet_split answered but failed: bad, whatever the joint fit says.
+  AxisAnalysis split = handMade(0.01, 1.0);
+  split.method = "wavelet_split";
+  split.has_split = true;
+  split.split.ok = false;
+  split.split.message = "record too short for the wavelet";
+  EXPECT_EQ(assessQuality(split).quality, Quality::Bad);
+}
+
+TEST(Quality, ModerateErrorsAndWarningSignsAreDoubtful) {
+  const QualityVerdict r = assessQuality(handMade(0.08, 1.0));
+  EXPECT_EQ(r.quality, Quality::Doubtful);
+  EXPECT_TRUE(has(r.reason, "0.080")) << r.reason;
+  EXPECT_EQ(assessQuality(handMade(0.01, 8.0)).quality, Quality::Doubtful);
+
+  AxisAnalysis cut = handMade(0.01, 1.0);
+  cut.notes.push_back(std::string(kStaticStretchNote) + ", 10.0-400.0 s");
+  const QualityVerdict c = assessQuality(cut);
+  EXPECT_EQ(c.quality, Quality::Doubtful);
+  EXPECT_TRUE(has(c.reason, "static stretch")) << c.reason;
+
+  AxisAnalysis spikes = handMade(0.01, 1.0);
+  spikes.spikes_checked = true;
+  spikes.spikes.count = 500;  // 0.5 % of 100000
+  const QualityVerdict s = assessQuality(spikes);
+  EXPECT_EQ(s.quality, Quality::Doubtful);
+  EXPECT_TRUE(has(s.reason, "500 spikes")) << s.reason;
+  spikes.spikes.count = 20;  // 0.02 %: fine
+  EXPECT_EQ(assessQuality(spikes).quality, Quality::Good);
+
+  AxisAnalysis methods = handMade(0.01, 1.0);
+  methods.has_split = true;
+  methods.split.ok = true;
+  methods.split.terms[kAngleRandomWalk] = {9e-4, 1e-5, true};  // x4.5 the joint fit's 2e-4
+  const QualityVerdict m = assessQuality(methods);
+  EXPECT_EQ(m.quality, Quality::Doubtful);
+  EXPECT_TRUE(has(m.reason, "x4.50")) << m.reason;
+  methods.split.terms[kAngleRandomWalk] = {2.5e-4, 1e-5, true};  // x1.25: agree
+  EXPECT_EQ(assessQuality(methods).quality, Quality::Good);
+  methods.split.terms[kAngleRandomWalk] = {0, 5e-5, false};  // bound 5e-5, joint fit 2e-4 above twice it
+  EXPECT_EQ(assessQuality(methods).quality, Quality::Doubtful);
+  methods.split.terms[kAngleRandomWalk] = {0, 5e-4, false};  // a bound above the joint fit: no contradiction
+  EXPECT_EQ(assessQuality(methods).quality, Quality::Good);
+}
+
+TEST(Quality, FitResultOverloadAppliesTheSameRule) {
+  const AxisAnalysis a = handMade(0.3, 2.0);
+  const QualityVerdict v = assessQuality(a.fit);
+  EXPECT_EQ(v.quality, Quality::Bad);
+  EXPECT_EQ(v.reason, assessQuality(a).reason);
+  FitResult good = handMade(0.02, 1.5).fit;
+  EXPECT_EQ(assessQuality(good).quality, Quality::Good);
+  QualityContext ctx;
+  ctx.static_stretch = true;
+  EXPECT_EQ(assessQuality(good, ctx).quality, Quality::Doubtful);
+  ctx = QualityContext();
+  ctx.compare_methods = true;
+  ctx.joint_fit_n = {1e-3, 1e-5, true};
+  ctx.wavelet_split_n = {2e-4, 1e-6, true};
+  EXPECT_EQ(assessQuality(good, ctx).quality, Quality::Doubtful);
+  good.ok = false;
+  EXPECT_EQ(assessQuality(good).quality, Quality::Bad);
+}
