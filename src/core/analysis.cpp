@@ -80,7 +80,14 @@ void AxisStages::prepare() {
   a.mean = static_cast<double>(sum / a.samples);
   a.duration_s = static_cast<double>(a.samples) * tau0;
   if (options.input == InputKind::Rate) a.quantized = detectQuantizedOutput(segments, tau0);  // before spike removal
-  if (spikes_on) removeSegmentSpikes();
+  if (spikes_on && a.quantized.quantized && a.quantized.two_level_fraction >= 0.9) {
+    // A pulse counter whose noise is below one count (>= 90 % of samples on the two counts around the mean): each
+    // pulse is an isolated jump of one count and the spike rule would take every one of them (2 % of an undithered
+    // RLG's samples, leaving N 1e-12 of the truth).
+    a.notes.push_back("spike removal skipped: the output is a pulse count (" + a.quantized.summary + ")");
+  } else if (spikes_on) {
+    removeSegmentSpikes();
+  }
   a.oadev = computeDeviation("oadev", segments, options.input, tau0, options.deviation);
   raw_oadev_ = a.oadev;  // as computed, for the wavelet split's own fit error
   enforceRedderWithTau(&a.oadev, options.deviation.confidence);
@@ -240,7 +247,11 @@ AxisAnalysis AxisStages::finish() {
     const FitResult* den = split_ok && a.split.denoised_fit.ok ? &a.split.denoised_fit : nullptr;
     auto gross = [](const FitResult& f) { return f.gls && f.chi2_p < kGrossMisfitP && f.chi2_dof > kGrossMisfitChi2Dof; };
     char buf[240];
-    if (method == "joint_fit" && den && gross(joint) && !gross(*den) && den->chi2_dof * 10 < joint.chi2_dof) {
+    if (method == "joint_fit" && split_ok && a.quantized.sawtooth) {
+      method = "wavelet_split";
+      a.method_reason = "undithered quantization: the pulse count repeats at " + std::to_string(a.quantized.sawtooth_hz) +
+                        " Hz (a sawtooth the Allan model's white quantization term cannot describe)";
+    } else if (method == "joint_fit" && den && gross(joint) && !gross(*den) && den->chi2_dof * 10 < joint.chi2_dof) {
       method = "wavelet_split";
       std::snprintf(buf, sizeof buf,
                     "the Allan model cannot describe the curve (joint fit chi2/dof %.3g, p %.2g) while the split's "
