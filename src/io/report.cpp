@@ -27,6 +27,14 @@ YAML::Node coefficientNode(const Coefficient& c, const char* unit) {
   n["value"] = num(c.value);
   n["sigma"] = num(c.sigma);
   n["supported"] = c.supported;
+  // Supported: two-sided 68.3 % / 95 % intervals; not supported: [0, upper end of the unconstrained estimate's
+  // two-sided interval] (noise_model.hpp, docs/calibration.md).
+  n["interval_68"] = YAML::Node(YAML::NodeType::Sequence);
+  n["interval_68"].push_back(num(c.lo68));
+  n["interval_68"].push_back(num(c.hi68));
+  n["interval_95"] = YAML::Node(YAML::NodeType::Sequence);
+  n["interval_95"].push_back(num(c.lo95));
+  n["interval_95"].push_back(num(c.hi95));
   n["unit"] = unit;
   return n;
 }
@@ -154,6 +162,16 @@ YAML::Node fitNode(const FitResult& fit) {
   n["chi2_dof"] = num(fit.chi2_dof);
   n["dof"] = fit.dof;
   n["rms_points"] = fit.n_rms;
+  if (fit.gls) {
+    n["weighting"] = "gls";
+    n["chi2_p"] = num(fit.chi2_p);
+    n["uncertainty"] = fit.uncertainty;
+    n["uncertainty_inflation"] = num(fit.uncertainty_inflation);
+    // Generalized chi-squared a selected term saves (or an unselected one would save); selection needs > penalty.
+    for (int t = 0; t < kNumTerms; ++t) n["evidence_chi2"][noiseTermKey(t)] = num(fit.evidence[static_cast<size_t>(t)]);
+  } else {
+    n["weighting"] = "edf";
+  }
   return n;
 }
 
@@ -414,7 +432,8 @@ std::string summaryTable(const std::vector<AxisAnalysis>& axes) {
                   a.method.c_str(), a.quality.quality == Quality::Bad ? "BAD" : qualityName(a.quality.quality));
     o << buf << "\n";
   }
-  o << "(value +- 1 sigma; 0 (<b): not supported by the data, b = 1-sigma upper bound)\n";
+  o << "(value +- 1 sigma from the GLS covariance of the Allan-variance estimates; 0 (<b): not supported by the data, "
+       "b = 1-sigma upper bound; 68 %/95 % intervals in report.yaml)\n";
   o << qualityLines(axes, true);
   // Spikes: how many were removed and what N the plain joint fit gives with them left in (x: ratio to the joint fit
   // without them).
