@@ -7,7 +7,10 @@
 //   controls: consumer, consumer_lsb (200 Hz), consumer_100, consumer_lsb_100 (100 Hz), tactical, fog, rlg, nav, flicker,
 //             random_walk
 //   injected (on nav): sinusoid, gauss_markov, bias_step, thermal (warm-up with temperature), warmup (without)
-// Gate options (ModelCheckOptions): --min-rms-gain X, --min-amplitude-z X, --max-nonlinear-rel-sigma X.
+// Gate options (ModelCheckOptions): --min-rms-gain X, --min-amplitude-z X, --max-nonlinear-rel-sigma X,
+// --bic-margin X, --bic-margin-stochastic X.
+// Columns struct.bef / struct.aft: runs whose residual verdict (ResidualAnalysis::structured) was "structured" for the
+// plain fit / for the final answer.
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -194,15 +197,22 @@ int main(int argc, char** argv) {
     mo.min_amplitude_z = std::atof(argValue(argc, argv, "--min-amplitude-z", std::to_string(mo.min_amplitude_z)).c_str());
     mo.max_nonlinear_rel_sigma =
         std::atof(argValue(argc, argv, "--max-nonlinear-rel-sigma", std::to_string(mo.max_nonlinear_rel_sigma)).c_str());
-    std::printf("# min_rms_gain %.4g, min_amplitude_z %.3g, max_nonlinear_rel_sigma %.3g\n", mo.min_rms_gain,
-                mo.min_amplitude_z, mo.max_nonlinear_rel_sigma);
+    mo.bic_margin = std::atof(argValue(argc, argv, "--bic-margin", std::to_string(mo.bic_margin)).c_str());
+    mo.bic_margin_stochastic =
+        std::atof(argValue(argc, argv, "--bic-margin-stochastic", std::to_string(mo.bic_margin_stochastic)).c_str());
+    std::printf("# min_rms_gain %.4g, min_amplitude_z %.3g, max_nonlinear_rel_sigma %.3g, bic_margin %.3g, "
+                "bic_margin_stochastic %.3g\n",
+                mo.min_rms_gain, mo.min_amplitude_z, mo.max_nonlinear_rel_sigma, mo.bic_margin,
+                mo.bic_margin_stochastic);
     FILE* csv = csv_path.empty() ? nullptr : std::fopen(csv_path.c_str(), "w");
     if (csv)
-      std::fprintf(csv, "class,seed,rms_before,rms_after,n_effects,first_type,worse,effects,rejected\n");
-    std::printf("%-14s %6s %5s %9s %12s %10s\n", "class", "seeds", "runs", "any kept", "expected", "worse rms");
+      std::fprintf(csv, "class,seed,rms_before,rms_after,n_effects,first_type,worse,structured_before,chi2_dof_before,"
+                   "chi2_p_before,structured_after,chi2_p_after,effects,rejected\n");
+    std::printf("%-14s %6s %5s %9s %12s %10s %10s %10s\n", "class", "seeds", "runs", "any kept", "expected", "worse rms",
+                "struct.bef", "struct.aft");
     for (const Class& k : classes()) {
       if (only != ",," && only.find("," + k.name + ",") == std::string::npos) continue;
-      int runs = 0, any = 0, found = 0, worse = 0;
+      int runs = 0, any = 0, found = 0, worse = 0, struct_before = 0, struct_after = 0;
       std::string which;
       for (int s = s0; s <= s1; ++s) {
         SimulationSpec spec;
@@ -246,22 +256,26 @@ int main(int argc, char** argv) {
         for (const auto& r : mc.rejected) rej += (rej.empty() ? "" : " | ") + r;
         const bool w = kept && !(mc.after.rms_log10 < mc.before.rms_log10);
         any += kept;
+        struct_before += mc.residual_before.structured;
+        struct_after += mc.residual_after.structured;
         found += hit;
         worse += w;
         if (kept && k.expect.empty()) which += " " + std::to_string(s) + ":" + mc.effects.front().type;
         if (!k.expect.empty() && !hit) which += " " + std::to_string(s) + (kept ? ":" + mc.effects.front().type : ":-");
         if (csv) {
-          std::fprintf(csv, "%s,%d,%.5f,%.5f,%zu,%s,%d,\"%s\",\"%s\"\n", k.name.c_str(), s, mc.before.rms_log10,
-                       mc.after.rms_log10, mc.effects.size(), kept ? mc.effects.front().type.c_str() : "", w ? 1 : 0,
-                       csvSafe(eff).c_str(), csvSafe(rej).c_str());
+          std::fprintf(csv, "%s,%d,%.5f,%.5f,%zu,%s,%d,%d,%.3f,%.4g,%d,%.4g,\"%s\",\"%s\"\n", k.name.c_str(), s,
+                       mc.before.rms_log10, mc.after.rms_log10, mc.effects.size(),
+                       kept ? mc.effects.front().type.c_str() : "", w ? 1 : 0, mc.residual_before.structured ? 1 : 0,
+                       mc.before.chi2_dof, mc.fit_before.chi2_p, mc.residual_after.structured ? 1 : 0,
+                       mc.fit_after.chi2_p, csvSafe(eff).c_str(), csvSafe(rej).c_str());
           std::fflush(csv);
         }
       }
       char range[32];
       std::snprintf(range, sizeof range, "%d-%d", s0, s1);
-      std::printf("%-14s %9s %5d %9d %12s %10d %s%s\n", k.name.c_str(), range, runs, any,
+      std::printf("%-14s %9s %5d %9d %12s %10d %10d %10d %s%s\n", k.name.c_str(), range, runs, any,
                   k.expect.empty() ? "-" : (std::to_string(found) + "/" + std::to_string(runs)).c_str(), worse,
-                  k.expect.empty() ? "kept:" : "missed:", which.c_str());
+                  struct_before, struct_after, k.expect.empty() ? "kept:" : "missed:", which.c_str());
       std::fflush(stdout);
     }
     if (csv) std::fclose(csv);
