@@ -166,7 +166,8 @@ bool buildProblem(const DeviationCurve& curve, const FitOptions& options, const 
     const auto& p = curve.points[i];
     // Points by their non-overlapping term count (the most conservative EDF), not by the identified or model EDF:
     // both passes of fitWithModelEdf and every axis of a record then share one set of points and one basis.
-    const double e = static_cast<double>(curve.n_phase) / static_cast<double>(p.m) - 1.0;
+    double e = p.edf;
+    if (!(e > 0) && p.m > 0) e = static_cast<double>(curve.n_phase) / static_cast<double>(p.m) - 1.0;
     if (!(p.tau > 0 && std::isfinite(p.var) && p.var > 0 && std::isfinite(e) && e >= options.min_edf)) continue;
     r->used[i] = true;
     if (last_m > 0 && static_cast<double>(p.m) < kMinRatio * static_cast<double>(last_m)) continue;
