@@ -448,7 +448,8 @@ ResidualAnalysis analyzeResidual(const DeviationCurve& curve, const std::vector<
 }
 
 ResidualAnalysis analyzeResidual(const DeviationCurve& curve, const FitResult& fit,
-                                 const std::vector<ExtraTerm>& extra, double alpha) {
+                                 const std::vector<ExtraTerm>& /*extra: their share is in fit.model_var*/,
+                                 double alpha) {
   ResidualAnalysis ra = analyzeResidual(curve, fit.model_var, fit.used, fit.chi2_dof);
   ra.alpha = alpha;
   if (!fit.gls || !fit.ok || fit.gls_used.size() != curve.points.size() || !(curve.tau0 > 0)) return ra;
