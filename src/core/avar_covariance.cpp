@@ -151,7 +151,7 @@ AvarCovarianceBasis avarCovarianceBasis(const std::vector<int64_t>& m, const std
         for (int64_t h = b - kExact + 1; h <= b; ++h) evalAt(static_cast<long double>(h), 1.0L);
         const long double u = static_cast<long double>(a + kExact) - 0.5L;
         const long double v = static_cast<long double>(b - kExact) + 0.5L;
-        const long double mid = 0.5L * (u + v), half = 0.5L * (v - u);
+        const long double half = 0.5L * (v - u);
         // Panels from each end: widths in ratio 1:3:9 over each half.
         const long double frac[4] = {0.0L, 1.0L / 13, 4.0L / 13, 1.0L};
         for (int side = 0; side < 2; ++side)
@@ -161,7 +161,6 @@ AvarCovarianceBasis avarCovarianceBasis(const std::vector<int64_t>& m, const std
             const long double c = 0.5L * (x0 + x1), r = 0.5L * (x1 - x0);
             for (int g = 0; g < 6; ++g) evalAt(c + r * kGlX[g], r * kGlW[g]);
           }
-        (void)mid;
       }
       const long double taui = mi * static_cast<long double>(tau0), tauj = mj * static_cast<long double>(tau0);
       const long double norm = 4.0L * taui * taui * tauj * tauj * static_cast<long double>(Mi) * static_cast<long double>(Mj);
