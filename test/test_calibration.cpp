@@ -19,8 +19,10 @@ namespace {
 constexpr double kDeg = M_PI / 180.0;
 
 struct Tally {
-  int cases = 0, in68 = 0, in95 = 0;  // terms with truth > 0
-  int zeros = 0, phantom = 0;         // terms with truth 0
+  int cases = 0, in68 = 0, in95 = 0;              // terms with truth > 0
+  int sel_cases = 0, sel_in68 = 0, sel_in95 = 0;  // ... of them supported: [lo, hi]
+  int drop_cases = 0, drop_in68 = 0, drop_in95 = 0;  // ... not supported: [0, hi]
+  int zeros = 0, phantom = 0;                     // terms with truth 0
 };
 
 // Runs the plain joint fit (oadev, GLS) on `seeds` records of one class and tallies every term.
@@ -43,11 +45,16 @@ void runClass(const AxisNoise& noise, double rate_hz, double duration_s, uint64_
   for (const FitResult& f : fits) {
     ASSERT_TRUE(f.ok) << f.message;
     for (int k = 0; k < kNumTerms; ++k) {
-      const Coefficient& co = f.terms[static_cast<size_t>(k)];
+      const Coefficient& co = f.terms_corrected[static_cast<size_t>(k)];
       if (truth[k] > 0) {
+        const int in68 = (truth[k] >= co.lo68 && truth[k] <= co.hi68) ? 1 : 0;
+        const int in95 = (truth[k] >= co.lo95 && truth[k] <= co.hi95) ? 1 : 0;
         ++t->cases;
-        t->in68 += (truth[k] >= co.lo68 && truth[k] <= co.hi68) ? 1 : 0;
-        t->in95 += (truth[k] >= co.lo95 && truth[k] <= co.hi95) ? 1 : 0;
+        t->in68 += in68;
+        t->in95 += in95;
+        (co.supported ? t->sel_cases : t->drop_cases) += 1;
+        (co.supported ? t->sel_in68 : t->drop_in68) += in68;
+        (co.supported ? t->sel_in95 : t->drop_in95) += in95;
       } else {
         ++t->zeros;
         t->phantom += co.supported ? 1 : 0;
@@ -79,10 +86,24 @@ TEST(Calibration, IntervalsCoverAndNoPhantomTerms) {
   rlg.bias_instability = 0.003 / 3600 * kDeg;
   runClass(rlg, 100, 1800, 7101, 30, &t);
   ASSERT_EQ(t.cases, 180);
-  std::printf("coverage 68 %%: %d/%d, 95 %%: %d/%d; phantom terms %d/%d\n", t.in68, t.cases, t.in95, t.cases, t.phantom,
-              t.zeros);
-  // Coverage pooled over terms (cases within a record are not independent; the 3-sigma band still allows for it).
-  expectBinomial(t.in68, t.cases, 0.683, "68 % intervals holding the truth");
+  std::printf("coverage 68 %%: %d/%d, 95 %%: %d/%d (supported terms %d/%d, %d/%d; not supported %d/%d, %d/%d); "
+              "phantom terms %d/%d\n",
+              t.in68, t.cases, t.in95, t.cases, t.sel_in68, t.sel_cases, t.sel_in95, t.sel_cases, t.drop_in68,
+              t.drop_cases, t.drop_in95, t.drop_cases, t.phantom, t.zeros);
+  // Supported terms: intervals conditional on the selection (selective.hpp) hold the truth at their nominal rate.
+  // Pooled over terms (cases within a record are not independent; the 3-sigma band still allows for it).
+  expectBinomial(t.sel_in68, t.sel_cases, 0.683, "68 % intervals of supported terms holding the truth");
+  EXPECT_GE(static_cast<double>(t.sel_in95) / t.sel_cases, 0.95 - 3 * std::sqrt(0.95 * 0.05 / t.sel_cases))
+      << "95 % intervals of supported terms holding the truth: " << t.sel_in95 << "/" << t.sel_cases;
+  // Terms not supported get [0, upper bound]; the bound is power-constrained (never below what an estimate of 0
+  // would give), so it covers at least at the nominal rate, and more where the truth is far below detection (the
+  // 30-min records' B and K). Checked: no under-coverage, overall and among them.
+  EXPECT_GE(static_cast<double>(t.drop_in68) / t.drop_cases, 0.683 - 3 * std::sqrt(0.683 * 0.317 / t.drop_cases))
+      << "68 % bounds of unsupported terms holding the truth: " << t.drop_in68 << "/" << t.drop_cases;
+  EXPECT_GE(static_cast<double>(t.drop_in95) / t.drop_cases, 0.95 - 3 * std::sqrt(0.95 * 0.05 / t.drop_cases))
+      << "95 % bounds of unsupported terms holding the truth: " << t.drop_in95 << "/" << t.drop_cases;
+  EXPECT_GE(static_cast<double>(t.in68) / t.cases, 0.683 - 3 * std::sqrt(0.683 * 0.317 / t.cases))
+      << "68 % intervals holding the truth: " << t.in68 << "/" << t.cases;
   EXPECT_GE(static_cast<double>(t.in95) / t.cases, 0.95 - 3 * std::sqrt(0.95 * 0.05 / t.cases))
       << "95 % intervals holding the truth: " << t.in95 << "/" << t.cases;
   // Phantom terms: the selection penalty 4 (6 for the ramp) aims at <= 5 % per absent term.

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 
 #include "gyro_allan/allan.hpp"
 #include "gyro_allan/analysis.hpp"
@@ -123,7 +124,7 @@ TEST(NoiseModel, TooFewPointsIsNotOk) {
 }
 
 // Acceptance (issue "vertical slice"): 1 h, 400 Hz MEMS-like gyro, N = 2e-4 rad/sqrt(s), B = 2e-5 rad/s,
-// K = 2e-6 rad/s/sqrt(s): N within 3 %, B and K within 2 reported sigmas of truth. Two seeds x 3 axes = 6 cases
+// K = 2e-6 rad/s/sqrt(s): N within 3 %, B and K inside their 95 % intervals. Two seeds x 3 axes = 6 cases
 // per coefficient; at nominal 95 % coverage, 2 or more misses of 6 happen 3 % of the time, so at most 1 miss is allowed.
 TEST(NoiseModel, RecoversMemsCoefficientsFromSimulation) {
   AxisNoise a;
@@ -137,10 +138,13 @@ TEST(NoiseModel, RecoversMemsCoefficientsFromSimulation) {
       const FitResult f = analyzeAxis("x", {y}, 1.0 / 400.0, AnalysisOptions{}).fit;
       ASSERT_TRUE(f.ok);
       EXPECT_NEAR(f.terms[kAngleRandomWalk].value / 2e-4, 1.0, 0.03) << "seed " << seed << " axis " << axis;
-      const auto& b = f.terms[kBiasInstability];
-      const auto& k = f.terms[kRateRandomWalk];
-      if (std::fabs(b.value - 2e-5) > 2 * b.sigma) ++miss_b;
-      if (std::fabs(k.value - 2e-6) > 2 * k.sigma) ++miss_k;
+      const auto& b = f.terms_corrected[kBiasInstability];
+      const auto& k = f.terms_corrected[kRateRandomWalk];
+      std::printf("seed %d axis %d: B %.3g [%.3g, %.3g]%s, K %.3g [%.3g, %.3g]%s\n", static_cast<int>(seed), axis,
+                  b.value, b.lo95, b.hi95, b.supported ? "" : " (not supported)", k.value, k.lo95, k.hi95,
+                  k.supported ? "" : " (not supported)");
+      if (!(b.lo95 <= 2e-5 && 2e-5 <= b.hi95)) ++miss_b;
+      if (!(k.lo95 <= 2e-6 && 2e-6 <= k.hi95)) ++miss_k;
     }
   }
   EXPECT_LE(miss_b, 1);

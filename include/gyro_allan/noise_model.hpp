@@ -99,6 +99,12 @@ struct FitResult {
   /// not selected, how much it would fall with it (compare with term_penalty / ramp_penalty).
   std::array<double, kNumTerms> evidence{{0, 0, 0, 0, 0}};
   double uncertainty_inflation = 1.0;         ///< sigmas scaled by sqrt(chi2/dof) when the model misfits (p < 0.01)
+  /// The answer (covariance weighting; equal to `terms` otherwise). A term the subset search selected is reported
+  /// at its selection-corrected value, the conditional median-unbiased estimate given that it was selected
+  /// (selective.hpp): a weak term is selected only when it came out high. A term whose corrected value is 0 (it only
+  /// just passed) is dropped: `dropped_by_correction`. `terms` keeps the least-squares values behind model_var.
+  std::array<Coefficient, kNumTerms> terms_corrected;
+  std::array<bool, kNumTerms> dropped_by_correction{{false, false, false, false, false}};
 };
 
 /// Fits the model to `curve` (AVAR in curve.points[i].var; weights from points[i].edf; edf <= 0 is treated as

@@ -55,6 +55,11 @@ struct QualityContext {
 /// kDoubtfulMethodRatio; good otherwise.
 QualityVerdict assessQuality(const AxisAnalysis& a);
 
+/// A bad verdict means the model does not describe the record, so no interval computed under it can be trusted: the
+/// 68 % and 95 % intervals of `coefficients` become [0, inf) (values are kept, flagged by the verdict). Returns
+/// whether it widened them.
+bool unboundIntervalsIfBad(const QualityVerdict& verdict, std::array<Coefficient, kNumTerms>* coefficients);
+
 /// The same rule for a bare fit (the nodelet's per-hop answer: fit.terms, fit.rms_log10, fit.chi2_dof, fit.ok).
 QualityVerdict assessQuality(const FitResult& fit, const QualityContext& context = {});
 

@@ -281,16 +281,34 @@ AxisAnalysis AxisStages::finish() {
     int n_params = 0;
     for (const auto& c : a.split.terms) n_params += c.supported ? 1 : 0;
     a.final_error = fitError(a.oadev, a.final_model_var, a.fit.used, n_params, options.fit.rms_min_edf);
+    const FitResult& den = a.split.denoised_fit;
+    auto bad = [](double rms, double chi2) {
+      return !(rms <= quality_limits::kBadRmsLog10) || !(chi2 <= quality_limits::kBadChi2Dof);
+    };
+    if (bad(a.final_error.rms_log10, a.final_error.chi2_dof) && den.ok && !bad(den.rms_log10, den.chi2_dof)) {
+      // The raw Allan curve is not the IEEE model's while the denoised signal is: the removed part is not white
+      // quantization (an undithered pulse count at constant rate is a sawtooth). The split's answer is judged by
+      // its fit of the denoised signal; the axis is bad only when both fit badly.
+      char note[240];
+      std::snprintf(note, sizeof note,
+                    "fit error is that of the denoised signal: the raw Allan curve misfits the split's model "
+                    "(rms_log10 %.3g, chi2/dof %.3g), as for non-white (sawtooth) quantization",
+                    a.final_error.rms_log10, a.final_error.chi2_dof);
+      a.notes.push_back(note);
+      a.final_error = {den.rms_log10, den.chi2_dof, den.n_rms};
+    }
   } else if (a.has_check && !a.check.effects.empty()) {
-    a.coefficients = a.check.fit_after.terms;
+    a.coefficients = a.check.fit_after.terms_corrected;
     a.final_model_var = a.check.fit_after.model_var;
     a.final_error = {a.check.after.rms_log10, a.check.after.chi2_dof, a.check.fit_after.n_rms};
   } else {
-    a.coefficients = a.fit.terms;
+    a.coefficients = a.fit.terms_corrected;
     a.final_model_var = a.fit.model_var;
     a.final_error = {a.fit.rms_log10, a.fit.chi2_dof, a.fit.n_rms};
   }
   a.quality = assessQuality(a);
+  if (unboundIntervalsIfBad(a.quality, &a.coefficients))
+    a.notes.push_back("intervals unbounded: the fit is bad, no interval computed under its model can be trusted");
   return std::move(a_);
 }
 

@@ -156,9 +156,21 @@ FitError fitError(const DeviationCurve& curve, const std::vector<double>& model_
   return e;
 }
 
+namespace {
+FitResult fitNoiseModelEdf(const DeviationCurve& curve, const FitOptions& options, const std::vector<ExtraTerm>& extra);
+}  // namespace
+
 FitResult fitNoiseModel(const DeviationCurve& curve, const FitOptions& options, const std::vector<ExtraTerm>& extra) {
   if (options.weighting == FitWeighting::Covariance && detail::glsApplies(curve))
     return detail::fitNoiseModelGls(curve, options, extra);
+  FitResult r = fitNoiseModelEdf(curve, options, extra);
+  r.terms_corrected = r.terms;  // no selection correction without the covariance
+  return r;
+}
+
+namespace {
+/// EDF-weighted relative least squares (FitWeighting::Edf, and curves the GLS does not apply to).
+FitResult fitNoiseModelEdf(const DeviationCurve& curve, const FitOptions& options, const std::vector<ExtraTerm>& extra) {
   FitResult r;
   const size_t np = curve.points.size();
   r.tau.resize(np);
@@ -379,5 +391,6 @@ FitResult fitNoiseModel(const DeviationCurve& curve, const FitOptions& options, 
   r.ok = true;
   return r;
 }
+}  // namespace
 
 }  // namespace gyro_allan

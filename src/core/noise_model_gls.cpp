@@ -9,13 +9,12 @@
 #include <boost/math/distributions/chi_squared.hpp>
 
 #include "gyro_allan/avar_covariance.hpp"
+#include "gyro_allan/selective.hpp"
 #include "noise_model_internal.hpp"
 
 namespace gyro_allan {
 namespace {
 
-constexpr double kZ68 = 1.0;             // two-sided 68.27 %
-constexpr double kZ95 = 1.959963984540054;
 constexpr double kMisfitP = 0.01;        // below this chi-squared p-value the sigmas are inflated by sqrt(chi2/dof)
 
 /// Octave-spaced subset: a denser grid's neighbours share most of their data (correlation > 0.9) and make the
@@ -217,7 +216,9 @@ FitResult fitNoiseModelGls(const DeviationCurve& curve, const FitOptions& option
   FitResult r;
   const size_t np = curve.points.size();
   r.gls = true;
-  r.uncertainty = "GLS: inverse information with the analytic covariance of the AVAR estimates at the fitted model";
+  r.uncertainty =
+      "GLS: inverse information with the analytic covariance of the AVAR estimates at the fitted model; intervals "
+      "and values conditional on the term selection (selective inference)";
   r.tau.resize(np);
   for (size_t i = 0; i < np; ++i) r.tau[i] = curve.points[i].tau;
   r.model_var.assign(np, 0.0);
@@ -301,37 +302,43 @@ FitResult fitNoiseModelGls(const DeviationCurve& curve, const FitOptions& option
     r.message = "covariance of the Allan-variance points is not positive definite";
     return r;
   }
-  std::vector<int> pos;
-  for (int k = 0; k < ncol; ++k)
-    if (c[k] > 0) pos.push_back(k);
-  const double chi2 = (w.b - w.A * c).squaredNorm();
   const int n = static_cast<int>(P.idx.size());
-  r.dof = std::max(1, n - static_cast<int>(pos.size()));
-  r.chi2 = chi2;
-  r.chi2_dof = chi2 / r.dof;
-  r.chi2_p = chi2UpperTail(chi2, r.dof);
-  r.uncertainty_inflation = (r.chi2_p < kMisfitP && r.chi2_dof > 1) ? r.chi2_dof : 1.0;
+  std::vector<int> pos;
   // Evidence: chi-squared change when each IEEE term leaves or joins the final set (same covariance).
-  for (int col : ieee_cols) {
-    const int t = P.term[static_cast<size_t>(col)];
-    std::vector<int> cols;
-    const bool in = c[col] > 0;
-    for (int k : pos)
-      if (k != col) cols.push_back(k);
-    if (!in) cols.push_back(col);
-    Eigen::VectorXd tmp;
-    const double other = solveNnls(w, cols, &tmp);
-    r.evidence[static_cast<size_t>(t)] = in ? other - chi2 : chi2 - other;
-  }
+  auto statistics = [&]() {
+    pos.clear();
+    for (int k = 0; k < ncol; ++k)
+      if (c[k] > 0) pos.push_back(k);
+    const double chi2 = (w.b - w.A * c).squaredNorm();
+    r.dof = std::max(1, n - static_cast<int>(pos.size()));
+    r.chi2 = chi2;
+    r.chi2_dof = chi2 / r.dof;
+    r.chi2_p = chi2UpperTail(chi2, r.dof);
+    r.uncertainty_inflation = (r.chi2_p < kMisfitP && r.chi2_dof > 1) ? r.chi2_dof : 1.0;
+    for (int col : ieee_cols) {
+      const int t = P.term[static_cast<size_t>(col)];
+      std::vector<int> cols;
+      const bool in = c[col] > 0;
+      for (int k : pos)
+        if (k != col) cols.push_back(k);
+      if (!in) cols.push_back(col);
+      Eigen::VectorXd tmp;
+      const double other = solveNnls(w, cols, &tmp);
+      r.evidence[static_cast<size_t>(t)] = in ? other - chi2 : chi2 - other;
+    }
+  };
+  statistics();
 
-  // Intervals. The columns whose uncertainty counts: the selected terms and those the full model had (a term below
-  // the selection threshold still trades with its neighbours). Each endpoint is the coefficient x at which the
-  // estimate would sit z standard deviations away, with the standard deviation evaluated at x (score-type
-  // inversion, like Wilson's interval): the AVAR scatter grows with the term, so a Wald interval with the
-  // fitted value's sd is too short on the upper side (95 % bounds of K held the truth in 88 % of records).
-  std::vector<int> ucols = pos;
-  for (int col : ieee_cols)
-    if (!(c[col] > 0) && c_full[col] > 0) ucols.push_back(col);
+  // Intervals and values by selective inference (selective.hpp). Each term's estimate x (its least-squares value
+  // when selected; when not, its unconstrained value with the term added) is treated as normal with a variance
+  // that grows with the term itself (the AVAR scatter does: a fixed sigma made the upper side too short), and the
+  // fact that the subset search kept it (x above the threshold where its chi-squared saving equals the penalty) or
+  // dropped it (below) is conditioned on. The intervals then hold the truth at their stated rate among the records
+  // where the same selection happened, and a selected term's value is the conditional median-unbiased estimate:
+  // a weak term is selected only when it came out high, and its plain least-squares value was biased up (+50 %
+  // for a rate random walk near the detection limit). A selected term whose corrected value is 0 is dropped.
+  // The columns whose uncertainty counts: the selected terms and those the full model had (a term below the
+  // selection threshold still trades with its neighbours).
   auto sdAt = [&](const std::vector<int>& cols, size_t pos_in_cols, int col, double x) {
     Eigen::VectorXd cm = c_full;
     cm[col] = std::max(0.0, x);
@@ -343,65 +350,114 @@ FitResult fitNoiseModelGls(const DeviationCurve& curve, const FitOptions& option
     const int k = static_cast<int>(pos_in_cols);
     return std::sqrt(std::max(0.0, cov(k, k) * r.uncertainty_inflation));
   };
-  // Fixed point x = est + dir z sd(x), from the Wald endpoint; dir -1 stops at 0.
-  auto endpoint = [&](const std::vector<int>& cols, size_t k, int col, double est, double sd0, double z, int dir) {
-    double x = est + dir * z * sd0;
-    if (dir < 0 && x <= 0) return 0.0;
-    for (int it = 0; it < 12; ++it) {
-      const double sd = sdAt(cols, k, col, x);
-      if (!std::isfinite(sd)) break;
-      const double next = est + dir * z * sd;
-      if (dir < 0 && next <= 0) return 0.0;
-      const bool done = std::fabs(next - x) <= 1e-4 * std::fabs(x) + 1e-300;
-      x = std::min(next, est + 1e3 * (sd0 > 0 ? sd0 : std::fabs(est)));
-      if (done) break;
-    }
-    return std::max(0.0, x);
+  struct TermInference {
+    bool corrected_out = false;
+    double x = 0, sd0 = 0;
+    SelectionEvent event;
+    SelectiveEstimate est;
   };
-  if (!pos.empty()) {
-    Eigen::VectorXd est;
-    Eigen::MatrixXd cov;
-    solveFree(w, ucols, &est, &cov);
-    for (size_t k = 0; k < pos.size(); ++k) {
-      const int col = pos[k], t = P.term[static_cast<size_t>(col)];
-      const double sd0 = std::sqrt(std::max(0.0, cov(static_cast<int>(k), static_cast<int>(k)) * r.uncertainty_inflation));
-      Coefficient co;
-      co.supported = true;
-      co.value = std::sqrt(c[col]);
-      co.sigma = sd0 / (2.0 * co.value);
-      co.lo68 = std::sqrt(endpoint(ucols, k, col, c[col], sd0, kZ68, -1));
-      co.hi68 = std::sqrt(endpoint(ucols, k, col, c[col], sd0, kZ68, +1));
-      co.lo95 = std::sqrt(endpoint(ucols, k, col, c[col], sd0, kZ95, -1));
-      co.hi95 = std::sqrt(endpoint(ucols, k, col, c[col], sd0, kZ95, +1));
-      if (t < kNumTerms) {
-        r.terms[static_cast<size_t>(t)] = co;
-      } else {
-        r.extra[static_cast<size_t>(t - kNumTerms)] = co;
-        r.extra_c[static_cast<size_t>(t - kNumTerms)] = c[col];
-      }
+  std::vector<TermInference> inf(static_cast<size_t>(ncol));
+  const std::vector<int> pos_selected = pos;  // the subset search's choice, before any drop
+  auto infer = [&](int col, const std::vector<int>& cols, size_t k, double x, double sd0) {
+    TermInference ti;
+    ti.x = x;
+    ti.sd0 = sd0;
+    const int t = P.term[static_cast<size_t>(col)];
+    const bool selected = std::find(pos_selected.begin(), pos_selected.end(), col) != pos_selected.end();
+    ti.event.selected = selected;
+    if (t >= kNumTerms) {  // extra terms are always in: no selection to condition on
+      ti.event.threshold = selected ? -std::numeric_limits<double>::infinity() : std::numeric_limits<double>::infinity();
+    } else {
+      // The subset search keeps a term when the chi-squared it saves, about (x / sd)^2, exceeds its penalty.
+      ti.event.threshold = std::sqrt(penalty(col)) * sd0;
+      if (selected) ti.event.threshold = std::min(ti.event.threshold, x);
+    }
+    const double m1 = std::max({x, sd0, 1e-300});
+    const double mu[3] = {0.0, m1, m1 + 4.0 * std::max(sd0, 0.25 * m1)};
+    double var[3];
+    for (int i = 0; i < 3; ++i) {
+      const double sd = sdAt(cols, k, col, mu[i]);
+      var[i] = std::isfinite(sd) ? sd * sd : sd0 * sd0;
+    }
+    VarianceModel vm = VarianceModel::through(mu, var);
+    if (!selected && t < kNumTerms) {
+      // Dropped: the variance at the threshold, held fixed. With the variance growing like the term itself (a rate
+      // random walk's long-tau points), "it came out below the threshold" stays likely for any large value and the
+      // conditional bound had no finite end.
+      VarianceModel flat;
+      flat.v0 = vm.at(std::max(0.0, ti.event.threshold));
+      vm = flat;
+    }
+    ti.est = selectiveEstimate(x, vm, ti.event);
+    if (selected && t < kNumTerms && !(ti.est.median > 0)) {
+      // Selected, but its corrected value is 0 (it only just passed): dropped. Its bound is then the plain one-sided
+      // one (the conditional set is empty when the estimate sits on the threshold).
+      ti.corrected_out = true;
+      ti.est = selectiveEstimate(x, vm, SelectionEvent{false, std::numeric_limits<double>::infinity()});
+    }
+    inf[static_cast<size_t>(col)] = ti;
+  };
+  {
+    std::vector<int> ucols = pos;
+    for (int col : ieee_cols)
+      if (!(c[col] > 0) && c_full[col] > 0) ucols.push_back(col);
+    if (!pos.empty()) {
+      Eigen::VectorXd est;
+      Eigen::MatrixXd cov;
+      solveFree(w, ucols, &est, &cov);
+      for (size_t k = 0; k < pos.size(); ++k)
+        infer(pos[k], ucols, k, c[pos[k]],
+              std::sqrt(std::max(0.0, cov(static_cast<int>(k), static_cast<int>(k)) * r.uncertainty_inflation)));
+    }
+    for (int col = 0; col < ncol; ++col) {
+      if (c[col] > 0) continue;
+      std::vector<int> cols = ucols;
+      if (std::find(cols.begin(), cols.end(), col) == cols.end()) cols.push_back(col);
+      const size_t k = static_cast<size_t>(std::find(cols.begin(), cols.end(), col) - cols.begin());
+      Eigen::VectorXd est;
+      Eigen::MatrixXd cov;
+      solveFree(w, cols, &est, &cov);
+      infer(col, cols, k, est[static_cast<int>(k)],
+            std::sqrt(std::max(0.0, cov(static_cast<int>(k), static_cast<int>(k)) * r.uncertainty_inflation)));
     }
   }
-  // Terms not selected: [0, upper end of the two-sided interval] of the unconstrained estimate when the term joins
-  // the others. A one-sided bound at the same confidence would be shorter, but the terms left out are those whose
-  // estimate came out low, and its coverage among them fell to 40 % (68 %) where the truth was a weak K or B.
+  // `terms`: the least-squares values behind the model curve (the model check works with these); `terms_corrected`:
+  // the answer, with the selection-corrected values and the barely selected terms dropped. Both carry the same
+  // intervals.
   for (int col = 0; col < ncol; ++col) {
-    if (c[col] > 0) continue;
-    std::vector<int> cols = ucols;
-    if (std::find(cols.begin(), cols.end(), col) == cols.end()) cols.push_back(col);
-    const size_t k = static_cast<size_t>(std::find(cols.begin(), cols.end(), col) - cols.begin());
-    Eigen::VectorXd est;
-    Eigen::MatrixXd cov;
-    solveFree(w, cols, &est, &cov);
-    const double e = est[static_cast<int>(k)];
-    const double sd0 = std::sqrt(std::max(0.0, cov(static_cast<int>(k), static_cast<int>(k)) * r.uncertainty_inflation));
+    const TermInference& ti = inf[static_cast<size_t>(col)];
     Coefficient co;
-    co.sigma = std::sqrt(std::max(0.0, std::max(0.0, e) + sd0));  // 1-sigma upper bound (its meaning before)
-    co.hi68 = std::sqrt(endpoint(cols, k, col, e, sd0, kZ68, +1));
-    co.hi95 = std::sqrt(endpoint(cols, k, col, e, sd0, kZ95, +1));
+    co.supported = c[col] > 0;
+    co.value = co.supported ? std::sqrt(c[col]) : 0.0;
+    co.hi68 = std::sqrt(ti.est.hi68);
+    co.hi95 = std::sqrt(ti.est.hi95);
+    if (co.supported) {
+      co.lo68 = std::sqrt(ti.est.lo68);
+      co.lo95 = std::sqrt(ti.est.lo95);
+      co.sigma = ti.sd0 / (2.0 * co.value);  // delta method at the least-squares value (the model check's gates)
+    } else {
+      co.sigma = co.hi68;  // a 1-sigma upper bound
+    }
     const int t = P.term[static_cast<size_t>(col)];
-    if (t < kNumTerms) r.terms[static_cast<size_t>(t)] = co;
-    else r.extra[static_cast<size_t>(t - kNumTerms)] = co;
+    if (t < kNumTerms) {
+      r.terms[static_cast<size_t>(t)] = co;
+      Coefficient& cc = r.terms_corrected[static_cast<size_t>(t)];
+      cc = co;
+      if (co.supported && ti.corrected_out) {
+        r.dropped_by_correction[static_cast<size_t>(t)] = true;
+        cc.supported = false;
+        cc.value = 0.0;
+        cc.lo68 = cc.lo95 = 0.0;
+        cc.sigma = cc.hi68;
+      } else if (co.supported) {
+        cc.value = std::sqrt(ti.est.median);
+      }
+    } else {
+      r.extra[static_cast<size_t>(t - kNumTerms)] = co;
+      if (co.supported) r.extra_c[static_cast<size_t>(t - kNumTerms)] = c[col];
+    }
   }
+
 
   for (size_t i = 0; i < np; ++i) {
     double v = 0;

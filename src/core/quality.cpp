@@ -3,6 +3,7 @@
 #include "gyro_allan/quality.hpp"
 
 #include <cmath>
+#include <limits>
 #include <cstdio>
 #include <vector>
 
@@ -123,6 +124,15 @@ QualityVerdict assessQuality(const AxisAnalysis& a) {
     failure = a.has_split ? a.split.message : "wavelet split not run";
   }
   return judge(ok, failure, a.coefficients, a.final_error.rms_log10, a.final_error.chi2_dof, a.final_error.n_rms, ctx);
+}
+
+bool unboundIntervalsIfBad(const QualityVerdict& verdict, std::array<Coefficient, kNumTerms>* coefficients) {
+  if (verdict.quality != Quality::Bad) return false;
+  for (auto& c : *coefficients) {
+    c.lo68 = c.lo95 = 0.0;
+    c.hi68 = c.hi95 = std::numeric_limits<double>::infinity();
+  }
+  return true;
 }
 
 QualityVerdict assessQuality(const FitResult& fit, const QualityContext& context) {

@@ -44,7 +44,7 @@ YAML::Node coefficientsNode(const std::array<Coefficient, kNumTerms>& terms) {
   for (int t = 0; t < kNumTerms; ++t) n[noiseTermKey(t)] = coefficientNode(terms[static_cast<size_t>(t)], noiseTermUnit(t));
   return n;
 }
-YAML::Node coefficientsNode(const FitResult& fit) { return coefficientsNode(fit.terms); }
+YAML::Node coefficientsNode(const FitResult& fit) { return coefficientsNode(fit.terms_corrected); }
 
 YAML::Node errorNode(double rms_log10, double chi2_dof) {
   YAML::Node n;
@@ -169,6 +169,11 @@ YAML::Node fitNode(const FitResult& fit) {
     n["uncertainty_inflation"] = num(fit.uncertainty_inflation);
     // Generalized chi-squared a selected term saves (or an unselected one would save); selection needs > penalty.
     for (int t = 0; t < kNumTerms; ++t) n["evidence_chi2"][noiseTermKey(t)] = num(fit.evidence[static_cast<size_t>(t)]);
+    // Selected, then dropped: the selection-corrected value is 0 (noise_model.hpp terms_corrected).
+    YAML::Node dropped(YAML::NodeType::Sequence);
+    for (int t = 0; t < kNumTerms; ++t)
+      if (fit.dropped_by_correction[static_cast<size_t>(t)]) dropped.push_back(noiseTermKey(t));
+    n["dropped_by_selection_correction"] = dropped;
   } else {
     n["weighting"] = "edf";
   }

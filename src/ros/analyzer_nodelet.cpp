@@ -811,11 +811,11 @@ void AnalyzerNodelet::publishResults(const Snapshot& snap) {
     verdicts[a] = assessQuality(f, quality_context);
     axis.fit_ok = f.ok;
     axis.message = f.ok ? "" : (f.message.empty() ? "fit failed" : f.message);
-    axis.quantization = toMsg(f.terms[kQuantization]);
-    axis.angle_random_walk = toMsg(f.terms[kAngleRandomWalk]);
-    axis.bias_instability = toMsg(f.terms[kBiasInstability]);
-    axis.rate_random_walk = toMsg(f.terms[kRateRandomWalk]);
-    axis.rate_ramp = toMsg(f.terms[kRateRamp]);
+    axis.quantization = toMsg(f.terms_corrected[kQuantization]);
+    axis.angle_random_walk = toMsg(f.terms_corrected[kAngleRandomWalk]);
+    axis.bias_instability = toMsg(f.terms_corrected[kBiasInstability]);
+    axis.rate_random_walk = toMsg(f.terms_corrected[kRateRandomWalk]);
+    axis.rate_ramp = toMsg(f.terms_corrected[kRateRamp]);
     axis.rms_log10 = f.rms_log10;
     axis.chi2_dof = f.chi2_dof;
     axis.dof = f.dof;
@@ -1080,7 +1080,7 @@ void AnalyzerNodelet::diagTerm(int term, diagnostic_updater::DiagnosticStatusWra
   std::string worst;
   for (int a = 0; a < 3; ++a) {
     const FitResult& f = last_fit_.fits[a];
-    const Coefficient& c = f.terms[term];
+    const Coefficient& c = f.terms_corrected[term];
     const std::string ax = kAxisName[a];
     stat.add(ax, f.ok ? c.value : std::numeric_limits<double>::quiet_NaN());
     stat.add(ax + " sigma", c.sigma);

@@ -350,6 +350,7 @@ void noteStaticStretch(const ReportMeta& meta, AxisAnalysis* a) {
                 meta.rest_from_s, meta.rest_to_s);
   a->notes.push_back(buf);
   a->quality = assessQuality(*a);
+  unboundIntervalsIfBad(a->quality, &a->coefficients);
 }
 
 /// The warning for an axis whose verdict is bad (stderr and report.yaml warnings).
