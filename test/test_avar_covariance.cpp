@@ -3,6 +3,10 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
+#include <memory>
+#include <string>
+#include <thread>
 
 #include "gyro_allan/allan.hpp"
 #include "gyro_allan/avar_covariance.hpp"
@@ -159,4 +163,77 @@ TEST(AvarCovariance, UniformQuantizationKurtosis) {
     EXPECT_NEAR(mc[i] / uni(i, i), 1.0, 0.2) << "m=" << m[static_cast<size_t>(i)];
     EXPECT_LT(std::fabs(mc[i] / uni(i, i) - 1.0), std::fabs(mc[i] / gauss(i, i) - 1.0)) << "m=" << m[static_cast<size_t>(i)];
   }
+}
+
+namespace {
+
+// Every matrix of two bases equal bit for bit (memcmp: also the sign of zeros).
+void expectSameBasis(const AvarCovarianceBasis& a, const AvarCovarianceBasis& b, const std::string& what) {
+  ASSERT_EQ(a.m, b.m) << what;
+  ASSERT_EQ(a.n_terms, b.n_terms) << what;
+  auto same = [&](const Eigen::MatrixXd& x, const Eigen::MatrixXd& y, const std::string& name) {
+    ASSERT_EQ(x.rows(), y.rows()) << what << " " << name;
+    ASSERT_EQ(x.cols(), y.cols()) << what << " " << name;
+    EXPECT_EQ(0, std::memcmp(x.data(), y.data(), sizeof(double) * static_cast<size_t>(x.size()))) << what << " " << name;
+  };
+  for (int p = 0; p < 4; ++p) {
+    for (int q = 0; q < 4; ++q)
+      same(a.G[static_cast<size_t>(p)][static_cast<size_t>(q)], b.G[static_cast<size_t>(p)][static_cast<size_t>(q)],
+           "G" + std::to_string(p) + std::to_string(q));
+    same(a.H[static_cast<size_t>(p)], b.H[static_cast<size_t>(p)], "H" + std::to_string(p));
+  }
+  same(a.K4, b.K4, "K4");
+}
+
+}  // namespace
+
+TEST(AvarCovariance, SharedBasisEqualsDirectBuildForOverlappingPointSets) {
+  // The shared basis copies the entries a kept basis has (same two points) and sums the rest: a superset, a subset,
+  // a set with a changed term count and one with a different tau0 must all equal the direct build bit for bit.
+  const double tau0 = 0.0025;
+  const int64_t n = 200000;
+  auto terms = [&](const std::vector<int64_t>& m) {
+    std::vector<int64_t> t;
+    for (int64_t k : m) t.push_back(n - 2 * k);
+    return t;
+  };
+  const std::vector<int64_t> base{1, 2, 4, 8, 16, 32, 63, 126, 251, 501, 1000, 1995, 3981, 7943};
+  std::vector<int64_t> super = base;
+  super.push_back(15849);
+  const std::vector<int64_t> sub(base.begin() + 3, base.end());
+  const std::vector<int64_t> gapped{1, 4, 16, 63, 251, 1000, 3981, 15849, 31623};
+  struct Case {
+    std::vector<int64_t> m, n;
+    double tau0;
+    std::string what;
+  };
+  std::vector<int64_t> changed = terms(base);
+  changed[5] -= 7;  // one point's term count differs (another record length): that point's entries are summed anew
+  const std::vector<Case> cases{{base, terms(base), tau0, "base"},      {super, terms(super), tau0, "superset"},
+                                {sub, terms(sub), tau0, "subset"},      {gapped, terms(gapped), tau0, "gapped"},
+                                {base, changed, tau0, "changed count"}, {sub, terms(sub), 2 * tau0, "other tau0"},
+                                {base, terms(base), tau0, "base again"}};
+  for (const auto& c : cases) {
+    const auto shared = sharedAvarCovarianceBasis(c.m, c.n, c.tau0);
+    ASSERT_TRUE(shared);
+    expectSameBasis(*shared, avarCovarianceBasis(c.m, c.n, c.tau0), c.what);
+  }
+  EXPECT_EQ(sharedAvarCovarianceBasis(base, terms(base), tau0), sharedAvarCovarianceBasis(base, terms(base), tau0));
+  EXPECT_THROW(sharedAvarCovarianceBasis({}, {}, tau0), std::invalid_argument);
+  EXPECT_THROW(sharedAvarCovarianceBasis({1, 2}, {10, 0}, tau0), std::invalid_argument);
+}
+
+TEST(AvarCovariance, SharedBasisConcurrentRequestsBuildOnce) {
+  // Threads asking for the same new set at once sum its entries together and get the same object, equal to the
+  // direct build.
+  const double tau0 = 0.001;
+  const std::vector<int64_t> m{1, 3, 9, 27, 81, 243, 729, 2187, 6561, 19683};
+  std::vector<int64_t> nt;
+  for (int64_t k : m) nt.push_back(500000 - 2 * k);
+  std::vector<std::shared_ptr<const AvarCovarianceBasis>> got(4);
+  std::vector<std::thread> pool;
+  for (size_t t = 0; t < got.size(); ++t) pool.emplace_back([&, t] { got[t] = sharedAvarCovarianceBasis(m, nt, tau0); });
+  for (auto& th : pool) th.join();
+  for (const auto& g : got) EXPECT_EQ(g, got[0]);
+  expectSameBasis(*got[0], avarCovarianceBasis(m, nt, tau0), "concurrent");
 }

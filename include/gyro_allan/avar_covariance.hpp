@@ -14,6 +14,7 @@
 
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include <Eigen/Dense>
@@ -41,6 +42,14 @@ constexpr double kUniformExcessKurtosis = -1.2;
 /// Throws std::invalid_argument on empty or inconsistent input.
 AvarCovarianceBasis avarCovarianceBasis(const std::vector<int64_t>& m, const std::vector<int64_t>& n_terms,
                                         double tau0);
+
+/// avarCovarianceBasis, shared: the bases of the last 8 sets of points are kept (process-wide, thread-safe) and
+/// returned again for the same set. Every entry depends only on its two points (m, term count) and tau0, so a new
+/// set copies each entry whose two points a kept basis with the same tau0 also has (in the same order) and sums only
+/// the others: the result equals avarCovarianceBasis's bit for bit. Threads asking for a basis that is still being
+/// built sum its remaining entries alongside and all return the same object. Throws as avarCovarianceBasis.
+std::shared_ptr<const AvarCovarianceBasis> sharedAvarCovarianceBasis(const std::vector<int64_t>& m,
+                                                                     const std::vector<int64_t>& n_terms, double tau0);
 
 /// Covariance matrix of the AVAR estimates at the basis points for squared coefficients s (SI: rad^2, rad^2/s,
 /// rad^2/s^2, rad^2/s^3, rad^2/s^4). Entries for a term with s_p <= 0 vanish. The quantization error's excess

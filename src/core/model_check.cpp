@@ -473,7 +473,7 @@ ResidualAnalysis analyzeResidual(const DeviationCurve& curve, const FitResult& f
     if (fit.terms[t].supported && fit.terms[t].value > 0) sq[t] = fit.terms[t].value * fit.terms[t].value;
   Eigen::MatrixXd cov;
   try {
-    cov = avarCovariance(avarCovarianceBasis(ms, ns, curve.tau0), sq);
+    cov = avarCovariance(*sharedAvarCovarianceBasis(ms, ns, curve.tau0), sq);  // the fit's own basis (kept)
   } catch (const std::exception&) {
     return ra;
   }

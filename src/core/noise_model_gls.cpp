@@ -21,27 +21,12 @@ constexpr double kMisfitP = 0.01;        // below this chi-squared p-value the s
 /// covariance near-singular, while adding almost no information.
 constexpr double kMinRatio = 1.9;
 
-/// Bases of recent curves, shared by all threads: the axes of one record have the same averaging factors and term
-/// counts, and the model check refits the same curve dozens of times (a basis costs ~50 ms on a 1 h 400 Hz record).
+/// Bases of recent curves, shared by all threads (sharedAvarCovarianceBasis): the axes of one record have the same
+/// averaging factors and term counts, and the model check refits the same curve dozens of times, on point sets that
+/// differ from the fit's by a point or two (a basis costs ~50 ms on a 1 h 400 Hz record; an entry reused, nothing).
 std::shared_ptr<const AvarCovarianceBasis> cachedBasis(const std::vector<int64_t>& m, const std::vector<int64_t>& n,
                                                        double tau0) {
-  struct Entry {
-    std::vector<int64_t> m, n;
-    double tau0;
-    std::shared_ptr<const AvarCovarianceBasis> basis;
-  };
-  static std::mutex mutex;
-  static std::vector<Entry> cache;
-  {
-    std::lock_guard<std::mutex> lock(mutex);
-    for (const auto& e : cache)
-      if (e.tau0 == tau0 && e.m == m && e.n == n) return e.basis;
-  }
-  auto b = std::make_shared<const AvarCovarianceBasis>(avarCovarianceBasis(m, n, tau0));
-  std::lock_guard<std::mutex> lock(mutex);
-  if (cache.size() >= 8) cache.erase(cache.begin());
-  cache.push_back({m, n, tau0, b});
-  return b;
+  return sharedAvarCovarianceBasis(m, n, tau0);
 }
 
 double chi2UpperTail(double chi2, int dof) {
