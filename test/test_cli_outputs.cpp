@@ -100,10 +100,12 @@ TEST_F(Outputs, KalibrValuesAreTheReportsNAndKInSi) {
   const double n = worst(rep["axes"], "angle_random_walk"), k = worst(rep["axes"], "rate_random_walk");
   EXPECT_NEAR(imu["gyroscope_noise_density"].as<double>() / n, 1.0, 1e-6);
   EXPECT_NEAR(imu["gyroscope_random_walk"].as<double>() / k, 1.0, 1e-6);
-  // And they are the declared densities (N within 3 %; K within a factor 3: 10 min barely shows it).
+  // And they are the declared densities: N within 3 %. K (declared 1e-5) does not show in 10 min (the chi-squared it
+  // would save is ~0.1, far below the penalty 4): not supported, and its 68 % bound must hold the truth without
+  // being absurd (the conditional bound at the detection threshold is ~3x the truth here).
   EXPECT_NEAR(n / 1e-3, 1.0, 0.03);
-  EXPECT_GT(k, 1e-5 / 3);
-  EXPECT_LT(k, 3e-5);
+  EXPECT_GT(k, 1e-5);
+  EXPECT_LT(k, 1e-4);
   // Accelerometer: the report's section and Kalibr's accelerometer_noise_density = VRW, declared 2e-3 (3 %).
   ASSERT_TRUE(rep["accelerometer"]["axes"]["z"]) << "no accelerometer section";
   const YAML::Node acc = rep["accelerometer"]["axes"];
@@ -210,12 +212,12 @@ TEST_F(Outputs, DefaultBagVerdictAndQuantizedOutputInEveryOutput) {
   EXPECT_EQ(imu.find("BAD FIT"), std::string::npos) << imu;
 }
 
-// An undithered ring-laser gyro (Q = 0.35 arcsec, N = 0.001 deg/sqrt(h), 400 Hz, 10 min, 10 deg/h input) with its
-// pulses kept (--keep-spikes): the joint fit cannot describe the sawtooth quantization (rms_log10 ~0.8). Every output
-// must say bad: a "BAD FIT:" line before each row, the table's column, a warning per axis on stderr and in the
-// report, quality: bad in report.yaml, the Kalibr lines flagged; and the output is called quantized with a sawtooth
-// at the declared pulse rate (10 deg/h / pulse weight = 8.25 Hz).
-TEST_F(Outputs, UnditheredRlgIsABadFitInEveryOutputAndASawtooth) {
+// An undithered ring-laser gyro (Q = 0.35 arcsec, N = 0.001 deg/sqrt(h), 400 Hz, 10 min) with its pulses kept
+// (--keep-spikes). At a constant 10 deg/h input its quantization error is a sawtooth that the joint fit cannot
+// describe (rms_log10 ~0.8): the output is called quantized with a sawtooth at the declared pulse rate (10 deg/h /
+// pulse weight = 8.25 Hz), the wavelet split answers, Q within 5 % and N within 10 % (issue "calibrated answers"),
+// and the axis is not bad (the joint fit's N differs by x50: doubtful is allowed).
+TEST_F(Outputs, UnditheredRlgAtConstantRateIsASawtoothAndTheSplitAnswers) {
   const std::string csv = kOut + "/rlg_undithered.csv", out = kOut + "/rlg_undithered";
   const ToolRun s = run(kTools + "/simulate --output " + csv + " --rate 400 --duration 600 --quantization 1.6968e-6 "
                         "--no-dither --arw 2.909e-7 --input-rate 4.848e-5 --seed 3");
@@ -223,8 +225,34 @@ TEST_F(Outputs, UnditheredRlgIsABadFitInEveryOutputAndASawtooth) {
   const ToolRun r = run(kTools + "/analyze_bag --csv " + csv + " --keep-spikes --no-plot --output " + out);
   ASSERT_EQ(r.code, 0) << r.err;
   const YAML::Node rep = YAML::LoadFile(out + "/report.yaml");
-  const std::string imu = slurp(out + "/imu.yaml");
   const double pulse_hz = 4.848e-5 / (1.6968e-6 * std::sqrt(12.0));
+  for (const char* ax : {"wx", "wy", "wz"}) {
+    const YAML::Node a = rep["axes"][ax];
+    EXPECT_NE(a["quality"].as<std::string>(), "bad") << ax << ": " << a["quality_reason"].as<std::string>();
+    EXPECT_EQ(a["method"].as<std::string>(), "wavelet_split") << ax;
+    const YAML::Node c = a["coefficients"];
+    EXPECT_NEAR(c["quantization"]["value"].as<double>() / 1.6968e-6, 1.0, 0.05) << ax;
+    EXPECT_NEAR(c["angle_random_walk"]["value"].as<double>() / 2.909e-7, 1.0, 0.10) << ax;
+    const YAML::Node q = a["quantized_output"];
+    ASSERT_TRUE(q) << ax;
+    EXPECT_TRUE(q["sawtooth"].as<bool>()) << ax;
+    EXPECT_NEAR(q["sawtooth_hz"].as<double>() / pulse_hz, 1.0, 0.02) << ax;
+  }
+  EXPECT_EQ(r.out.find("BAD FIT"), std::string::npos) << r.out;
+}
+
+// The same gyro at rest with no input at all (0 deg/h): the angle wanders across a few pulses, no method can read N
+// from it, and every output must say bad: a "BAD FIT:" line before each row, the table's column, a warning per axis
+// on stderr and in the report, quality: bad in report.yaml, the Kalibr lines flagged, and intervals unbounded.
+TEST_F(Outputs, UnditheredRlgAtZeroRateIsABadFitInEveryOutput) {
+  const std::string csv = kOut + "/rlg_undithered0.csv", out = kOut + "/rlg_undithered0";
+  const ToolRun s = run(kTools + "/simulate --output " + csv + " --rate 400 --duration 600 --quantization 1.6968e-6 "
+                        "--no-dither --arw 2.909e-7 --input-rate 0 --seed 3");
+  ASSERT_EQ(s.code, 0) << s.err;
+  const ToolRun r = run(kTools + "/analyze_bag --csv " + csv + " --keep-spikes --no-plot --output " + out);
+  ASSERT_EQ(r.code, 0) << r.err;
+  const YAML::Node rep = YAML::LoadFile(out + "/report.yaml");
+  const std::string imu = slurp(out + "/imu.yaml");
   for (const char* ax : {"wx", "wy", "wz"}) {
     const YAML::Node a = rep["axes"][ax];
     EXPECT_EQ(a["quality"].as<std::string>(), "bad") << ax;
@@ -233,10 +261,10 @@ TEST_F(Outputs, UnditheredRlgIsABadFitInEveryOutputAndASawtooth) {
     EXPECT_NE(r.out.find(std::string("BAD FIT: axis ") + ax + ": " + reason), std::string::npos) << r.out;
     EXPECT_NE(r.err.find(std::string("warning: axis ") + ax + ": BAD FIT ("), std::string::npos) << r.err;
     EXPECT_NE(imu.find(std::string("# Quality gyro ") + ax + ": BAD ("), std::string::npos) << imu;
-    const YAML::Node q = a["quantized_output"];
-    ASSERT_TRUE(q) << ax;
-    EXPECT_TRUE(q["sawtooth"].as<bool>()) << ax;
-    EXPECT_NEAR(q["sawtooth_hz"].as<double>() / pulse_hz, 1.0, 0.02) << ax;
+    const YAML::Node n = a["coefficients"]["angle_random_walk"];
+    EXPECT_EQ(n["interval_68"][0].as<double>(), 0.0) << ax;
+    EXPECT_TRUE(std::isinf(n["interval_68"][1].as<double>())) << ax;
+    EXPECT_TRUE(std::isinf(n["interval_95"][1].as<double>())) << ax;
   }
   // The row of a bad axis follows its BAD FIT line and its quality column says BAD.
   const std::vector<std::string> out_lines = lines(r.out);
