@@ -366,13 +366,11 @@ FitResult fitNoiseModelGls(const DeviationCurve& curve, const FitOptions& option
     }
     VarianceModel vm = VarianceModel::through(mu, var);
     if (!selected && t < kNumTerms) {
-      // Dropped: the variance at the estimate (at 0 when it came out negative), held fixed. With the variance
-      // growing like the term itself (a rate random walk's long-tau points), "it came out below the threshold"
-      // stays likely for any large value and the conditional bound had no finite end; held at the threshold's
-      // variance it covered 99 % at 68 % (seeds 1-20), at the estimate's 88 %, nominal where the term is near
-      // detection (K of the issue / N+K classes: 65 % / 75 %).
+      // Dropped: the variance at the threshold, held fixed. With the variance growing like the term itself (a rate
+      // random walk's long-tau points), "it came out below the threshold" stays likely for any large value and the
+      // conditional bound had no finite end.
       VarianceModel flat;
-      flat.v0 = vm.at(std::max(0.0, x));
+      flat.v0 = vm.at(std::max(0.0, ti.event.threshold));
       vm = flat;
     }
     ti.est = selectiveEstimate(x, vm, ti.event);
