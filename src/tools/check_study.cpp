@@ -182,9 +182,36 @@ std::string csvSafe(std::string s) {
   return s;
 }
 
+const char* const kUsage =
+    "usage: check_study [--seeds A-B] [--class NAME[,NAME...]] [--csv FILE] [--min-rms-gain X] [--min-amplitude-z X]\n"
+    "                   [--max-nonlinear-rel-sigma X] [--bic-margin X] [--bic-margin-stochastic X]\n"
+    "  seeds 1-30: the tuning set; 1001-1030: the validation set (docs/validation.md). Default 1-30.\n";
+
+/// Every argument must be a known option followed by its value: anything else is named and the tool exits 1.
+bool checkArguments(int argc, char** argv) {
+  static const char* const known[] = {"--seeds", "--class", "--csv", "--min-rms-gain", "--min-amplitude-z",
+                                      "--max-nonlinear-rel-sigma", "--bic-margin", "--bic-margin-stochastic"};
+  for (int i = 1; i < argc; ++i) {
+    if (std::strcmp(argv[i], "--help") == 0 || std::strcmp(argv[i], "-h") == 0) {
+      std::fputs(kUsage, stdout);
+      std::exit(0);
+    }
+    bool ok = false;
+    for (const char* k : known) ok = ok || std::strcmp(argv[i], k) == 0;
+    if (!ok || i + 1 >= argc) {
+      std::fprintf(stderr, "check_study: %s %s (--help for usage)\n", ok ? "missing value for" : "unknown option",
+                   argv[i]);
+      return false;
+    }
+    ++i;
+  }
+  return true;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
+  if (!checkArguments(argc, argv)) return 1;
   try {
     const std::string seeds = argValue(argc, argv, "--seeds", "1-30");
     const size_t dash = seeds.find('-');
