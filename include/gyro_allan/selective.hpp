@@ -2,12 +2,15 @@
 // and the conditional median-unbiased estimate (Fithian, Sun & Taylor 2014; the "winner's curse" correction).
 #pragma once
 
+#include <limits>
+
 namespace gyro_allan {
 
 /// Variance of an estimate X as a function of the true value mu: var(X | mu) = v0 + v1 mu + v2 mu^2 (the Allan-variance
 /// scatter grows with the term itself, so a fixed sigma makes the upper side of an interval too short).
 struct VarianceModel {
   double v0 = 0, v1 = 0, v2 = 0;
+  double cap_mu = std::numeric_limits<double>::infinity();  ///< beyond this mu the variance is held at its value there
   double at(double mu) const;
   /// Through three (mu, variance) points (distinct mu); negative curvature or a non-positive minimum on [0, inf)
   /// falls back to the straight line through the outer points, then to the largest variance.

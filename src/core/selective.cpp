@@ -21,6 +21,7 @@ constexpr double kP95 = 0.025;
 }  // namespace
 
 double VarianceModel::at(double mu) const {
+  mu = std::min(mu, cap_mu);
   return std::max(0.0, v0 + v1 * mu + v2 * mu * mu);
 }
 
