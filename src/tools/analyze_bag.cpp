@@ -93,8 +93,9 @@ Output
                          DIR/imu.yaml (Kalibr IMU noise parameters: N and K of gyro and accelerometer, update_rate,
                          rostopic; a term the data does not support is written as its 1-sigma upper bound)
                          Uncertainties: generalized least squares with the analytic covariance of the overlapping
-                         Allan-variance estimates across tau (not a bootstrap); report.yaml gives each coefficient's
-                         68 % and 95 % intervals and each term's chi-squared evidence (docs/calibration.md)
+                         Allan-variance estimates across tau (not a bootstrap); intervals and values conditional on
+                         the term selection (selective inference); report.yaml gives each coefficient's 68 % and
+                         95 % intervals and each term's chi-squared evidence (docs/calibration.md)
   --kalibr-axis R        worst | mean: Kalibr's one value per term is the largest axis or the quadratic mean over
                          axes (default worst)
   --no-plot              do not run scripts/plot_allan.py (DIR/allan.png and DIR/allan.svg; needs /usr/bin/python3
