@@ -212,18 +212,26 @@ TEST_F(Outputs, DefaultBagVerdictAndQuantizedOutputInEveryOutput) {
   EXPECT_EQ(imu.find("BAD FIT"), std::string::npos) << imu;
 }
 
+// Simulates the undithered ring-laser gyro of the next two tests (Q = 0.35 arcsec, N = 0.001 deg/sqrt(h), 400 Hz,
+// 10 min) at a constant input rate [rad/s] and analyses it with its pulses kept (--keep-spikes) into `out`.
+static void analyzeUnditheredRlg(const std::string& out, const std::string& input_rate, ToolRun* r) {
+  const std::string csv = out + ".csv";
+  const ToolRun s = run(kTools + "/simulate --output " + csv + " --rate 400 --duration 600 --quantization 1.6968e-6 "
+                        "--no-dither --arw 2.909e-7 --input-rate " + input_rate + " --seed 3");
+  ASSERT_EQ(s.code, 0) << s.err;
+  *r = run(kTools + "/analyze_bag --csv " + csv + " --keep-spikes --no-plot --output " + out);
+  ASSERT_EQ(r->code, 0) << r->err;
+}
+
 // An undithered ring-laser gyro (Q = 0.35 arcsec, N = 0.001 deg/sqrt(h), 400 Hz, 10 min) with its pulses kept
 // (--keep-spikes). At a constant 10 deg/h input its quantization error is a sawtooth that the joint fit cannot
 // describe (rms_log10 ~0.8): the output is called quantized with a sawtooth at the declared pulse rate (10 deg/h /
 // pulse weight = 8.25 Hz), the wavelet split answers, Q within 5 % and N within 10 % (issue "calibrated answers"),
 // and the axis is not bad (the joint fit's N differs by x50: doubtful is allowed).
 TEST_F(Outputs, UnditheredRlgAtConstantRateIsASawtoothAndTheSplitAnswers) {
-  const std::string csv = kOut + "/rlg_undithered.csv", out = kOut + "/rlg_undithered";
-  const ToolRun s = run(kTools + "/simulate --output " + csv + " --rate 400 --duration 600 --quantization 1.6968e-6 "
-                        "--no-dither --arw 2.909e-7 --input-rate 4.848e-5 --seed 3");
-  ASSERT_EQ(s.code, 0) << s.err;
-  const ToolRun r = run(kTools + "/analyze_bag --csv " + csv + " --keep-spikes --no-plot --output " + out);
-  ASSERT_EQ(r.code, 0) << r.err;
+  const std::string out = kOut + "/rlg_undithered";
+  ToolRun r;
+  ASSERT_NO_FATAL_FAILURE(analyzeUnditheredRlg(out, "4.848e-5", &r));
   const YAML::Node rep = YAML::LoadFile(out + "/report.yaml");
   const double pulse_hz = 4.848e-5 / (1.6968e-6 * std::sqrt(12.0));
   for (const char* ax : {"wx", "wy", "wz"}) {
@@ -245,12 +253,9 @@ TEST_F(Outputs, UnditheredRlgAtConstantRateIsASawtoothAndTheSplitAnswers) {
 // from it, and every output must say bad: a "BAD FIT:" line before each row, the table's column, a warning per axis
 // on stderr and in the report, quality: bad in report.yaml, the Kalibr lines flagged, and intervals unbounded.
 TEST_F(Outputs, UnditheredRlgAtZeroRateIsABadFitInEveryOutput) {
-  const std::string csv = kOut + "/rlg_undithered0.csv", out = kOut + "/rlg_undithered0";
-  const ToolRun s = run(kTools + "/simulate --output " + csv + " --rate 400 --duration 600 --quantization 1.6968e-6 "
-                        "--no-dither --arw 2.909e-7 --input-rate 0 --seed 3");
-  ASSERT_EQ(s.code, 0) << s.err;
-  const ToolRun r = run(kTools + "/analyze_bag --csv " + csv + " --keep-spikes --no-plot --output " + out);
-  ASSERT_EQ(r.code, 0) << r.err;
+  const std::string out = kOut + "/rlg_undithered0";
+  ToolRun r;
+  ASSERT_NO_FATAL_FAILURE(analyzeUnditheredRlg(out, "0", &r));
   const YAML::Node rep = YAML::LoadFile(out + "/report.yaml");
   const std::string imu = slurp(out + "/imu.yaml");
   for (const char* ax : {"wx", "wy", "wz"}) {
