@@ -103,7 +103,7 @@ void fillConfidence(DeviationCurve* curve, double confidence,
 /// dev_hi = hi * dev. Returns false (and 0, 0) if edf is not positive and finite.
 bool deviationIntervalFactors(double edf, double confidence, ChiSquareConvention convention, double* lo, double* hi);
 
-/// Chi-squared quantile (inverse CDF) for dof > 0 (non-integer allowed), p in (0,1).
+/// Chi-squared quantile (inverse CDF, Boost.Math) for dof > 0 (non-integer allowed), p in (0,1).
 double chi2Quantile(double p, double dof);
 
 }  // namespace gyro_allan

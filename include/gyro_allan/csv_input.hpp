@@ -23,7 +23,8 @@ struct CsvOptions {
 /// named t, time, stamp or t_s is the time column. Separators: comma, semicolon, tab or spaces. Throws
 /// std::invalid_argument with "line N: ..." on a malformed row (wrong column count, not a number).
 CsvSeries parseCsv(std::istream& in, const CsvOptions& options = {});
-/// Reads a file (a path ending in .gz is read through `gzip -dc`). Throws std::runtime_error if unreadable.
+/// Reads a file (a path ending in .gz is decompressed with zlib). Throws std::runtime_error if unreadable or, for
+/// .gz, not a complete gzip file.
 CsvSeries readCsvFile(const std::string& path, const CsvOptions& options = {});
 
 }  // namespace gyro_allan

@@ -9,6 +9,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include <zlib.h>
+
 namespace gyro_allan {
 namespace {
 
@@ -126,20 +128,22 @@ CsvSeries readCsvFile(const std::string& path, const CsvOptions& options) {
     std::ifstream f(path);
     return parseCsv(f, options);
   }
-  std::string cmd = "gzip -dc '";
-  for (char ch : path) {
-    if (ch == '\'') cmd += "'\\''";
-    else cmd.push_back(ch);
+  // gzip (one or more members) decompressed by zlib; a file that is not gzip, or is truncated or corrupt, is an error.
+  gzFile f = gzopen(path.c_str(), "rb");
+  if (!f) throw std::runtime_error("cannot open '" + path + "'");
+  const std::runtime_error bad("'" + path + "' is not a readable gzip file");
+  if (gzdirect(f)) {
+    gzclose_r(f);
+    throw bad;
   }
-  cmd += "'";
-  FILE* p = popen(cmd.c_str(), "r");
-  if (!p) throw std::runtime_error("cannot run gzip for '" + path + "'");
   std::string text;
   char buf[1 << 16];
-  size_t n;
-  while ((n = fread(buf, 1, sizeof buf, p)) > 0) text.append(buf, n);
-  const int rc = pclose(p);
-  if (rc != 0) throw std::runtime_error("'" + path + "' is not a readable gzip file");
+  int n;
+  while ((n = gzread(f, buf, sizeof buf)) > 0) text.append(buf, static_cast<size_t>(n));
+  int err = Z_OK;
+  gzerror(f, &err);
+  const int closed = gzclose_r(f);
+  if (n < 0 || (err != Z_OK && err != Z_STREAM_END) || closed != Z_OK) throw bad;
   std::istringstream ss(text);
   return parseCsv(ss, options);
 }

@@ -6,6 +6,9 @@
 #include <stdexcept>
 #include <unordered_map>
 
+#include <boost/math/distributions/chi_squared.hpp>
+#include <boost/math/distributions/normal.hpp>
+
 #include "allan_internal.hpp"
 #include "gyro_allan/allan.hpp"
 
@@ -14,67 +17,11 @@ namespace gyro_allan {
 // ------------------------------------------------------------------------------------------------ chi-squared
 namespace {
 
-/// Regularized lower incomplete gamma P(a, x).
-double gammaP(double a, double x) {
-  if (x <= 0) return 0.0;
-  const double log_pref = a * std::log(x) - x - std::lgamma(a);
-  if (x < a + 1.0) {
-    // series: P = e^{-x} x^a / Gamma(a) * sum_n x^n / (a (a+1) ... (a+n))
-    double term = 1.0 / a, sum = term;
-    for (int n = 1; n < 10000000; ++n) {
-      term *= x / (a + n);
-      sum += term;
-      if (term < sum * 1e-17) break;
-    }
-    return std::min(1.0, sum * std::exp(log_pref));
-  }
-  // continued fraction for Q (modified Lentz)
-  const double tiny = 1e-300;
-  double b = x + 1.0 - a, c = 1.0 / tiny, d = 1.0 / b, h = d;
-  for (int i = 1; i < 10000000; ++i) {
-    const double an = -i * (i - a);
-    b += 2.0;
-    d = an * d + b;
-    if (std::fabs(d) < tiny) d = tiny;
-    c = b + an / c;
-    if (std::fabs(c) < tiny) c = tiny;
-    d = 1.0 / d;
-    const double del = d * c;
-    h *= del;
-    if (std::fabs(del - 1.0) < 1e-16) break;
-  }
-  return std::max(0.0, 1.0 - std::exp(log_pref) * h);
-}
-
-/// Standard normal quantile (rational start refined by Newton steps on erfc).
-double normalQuantile(double p) {
-  // Initial guess: logistic-like approximation, then Newton on Phi(z) = p.
-  double z;
-  if (p < 0.5) {
-    const double t = std::sqrt(-2.0 * std::log(p));
-    z = -(t - (2.515517 + 0.802853 * t + 0.010328 * t * t) / (1 + 1.432788 * t + 0.189269 * t * t + 0.001308 * t * t * t));
-  } else {
-    const double t = std::sqrt(-2.0 * std::log(1 - p));
-    z = t - (2.515517 + 0.802853 * t + 0.010328 * t * t) / (1 + 1.432788 * t + 0.189269 * t * t + 0.001308 * t * t * t);
-  }
-  for (int i = 0; i < 6; ++i) {
-    const double cdf = 0.5 * std::erfc(-z / std::sqrt(2.0));
-    const double pdf = std::exp(-0.5 * z * z) / std::sqrt(2.0 * M_PI);
-    if (pdf <= 0) break;
-    z -= (cdf - p) / pdf;
-  }
-  return z;
-}
-
-}  // namespace
-
-namespace {
-
-/// chi2Quantile without the cache.
-double chi2QuantileUncached(double p, double dof);
+/// Standard normal quantile (Boost.Math).
+double normalQuantile(double p) { return boost::math::quantile(boost::math::normal_distribution<double>(), p); }
 
 /// Memo of chi2Quantile per thread: the fits re-fill confidence intervals of the same points (same EDF) dozens of
-/// times, and one evaluation at EDF ~1e5 costs thousands of series terms per Newton step.
+/// times.
 struct QuantileKey {
   double p, dof;
   bool operator==(const QuantileKey& o) const { return p == o.p && dof == o.dof; }
@@ -95,41 +42,10 @@ double chi2Quantile(double p, double dof) {
   const auto it = memo.find(key);
   if (it != memo.end()) return it->second;
   if (memo.size() >= 65536) memo.clear();  // bounded: a long-running nodelet sees ever new EDFs
-  const double x = chi2QuantileUncached(p, dof);
+  const double x = boost::math::quantile(boost::math::chi_squared_distribution<double>(dof), p);
   memo.emplace(key, x);
   return x;
 }
-
-namespace {
-
-double chi2QuantileUncached(double p, double dof) {
-  const double z = normalQuantile(p);
-  // Wilson-Hilferty start
-  const double h = 2.0 / (9.0 * dof);
-  double x = dof * std::pow(std::max(1e-3, 1.0 - h + z * std::sqrt(h)), 3);
-  if (dof > 2e6) return x;  // Wilson-Hilferty relative error < 1e-9 here
-  const double a = 0.5 * dof;
-  double lo = 0, hi = std::max(1.0, x);
-  while (gammaP(a, 0.5 * hi) < p) hi *= 2;
-  if (!(x > lo && x < hi)) x = 0.5 * (lo + hi);
-  for (int it = 0; it < 200; ++it) {
-    const double f = gammaP(a, 0.5 * x) - p;
-    if (f < 0) lo = x; else hi = x;
-    const double logpdf = (a - 1) * std::log(x) - 0.5 * x - a * std::log(2.0) - std::lgamma(a);
-    const double pdf = std::exp(logpdf);
-    double xn = (pdf > 0) ? x - f / pdf : 0.5 * (lo + hi);
-    if (!(xn > lo && xn < hi)) xn = 0.5 * (lo + hi);
-    if (std::fabs(xn - x) <= 1e-15 * x) {
-      x = xn;
-      break;
-    }
-    x = xn;
-    if (hi - lo <= 1e-15 * hi) break;
-  }
-  return x;
-}
-
-}  // namespace
 
 // ------------------------------------------------------------------------------------------------ Greenhall EDF
 namespace {

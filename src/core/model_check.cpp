@@ -15,6 +15,7 @@
 #include "gyro_allan/avar_covariance.hpp"
 #include "gyro_allan/effects.hpp"
 #include "gyro_allan/spectral.hpp"
+#include "gyro_allan/stats.hpp"
 
 namespace gyro_allan {
 namespace {
@@ -852,8 +853,7 @@ ModelCheck checkModel(const std::vector<double>& rate, double tau0, const Deviat
       // Location uncertainty of a step in white noise: about (sigma_sample / size)^2 samples.
       std::vector<double> d(std::min<int64_t>(n - 1, 200000));
       for (size_t i = 0; i < d.size(); ++i) d[i] = std::fabs(rate[i + 1] - rate[i]);
-      std::nth_element(d.begin(), d.begin() + d.size() / 2, d.end());
-      const double s_sample = d[d.size() / 2] / 0.6745 / std::sqrt(2.0);
+      const double s_sample = upperMedianInPlace(d) / 0.6745 / std::sqrt(2.0);
       const double ts = best.index * tau0;
       const double ts_sigma = tau0 * std::max(1.0, (s_sample / best.size) * (s_sample / best.size));
       Candidate c;

@@ -1,6 +1,7 @@
 // Quantized-output detection: lattice of the rate samples (approximate gcd of value gaps) and the undithered
 // pulse-counter sawtooth (a spectral line of the count sequence at the mean count rate or its alias).
 #include "gyro_allan/quantized_output.hpp"
+#include "gyro_allan/stats.hpp"
 
 #include <algorithm>
 #include <array>
@@ -235,8 +236,7 @@ QuantizedOutput detectQuantizedOutput(const std::vector<double>& rate, double ta
   }
   const double line = std::max({power[0], power[1], power[2]});
   std::vector<double> floor_bins(power.begin() + 3, power.end());
-  std::nth_element(floor_bins.begin(), floor_bins.begin() + floor_bins.size() / 2, floor_bins.end());
-  const double floor_level = floor_bins[floor_bins.size() / 2];
+  const double floor_level = upperMedianInPlace(floor_bins);
   out.line_to_floor = floor_level > 0 ? line / floor_level : (line > 0 ? std::numeric_limits<double>::infinity() : 0);
   const double f = std::fabs(mu) / tau0;
   if (out.line_to_floor >= kMinLineToFloor) {

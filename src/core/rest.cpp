@@ -1,5 +1,6 @@
 // Rest detector: block statistics of gyro and accelerometer channels that tell a sensor at rest from a moved one.
 #include "gyro_allan/rest.hpp"
+#include "gyro_allan/stats.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -24,17 +25,6 @@ inline std::string fmt(const char* f, double a) {
 namespace {
 
 constexpr double kMadToSigma = 1.4826;
-
-double medianOf(std::vector<double>& v) {  // reorders v
-  const size_t n = v.size();
-  if (n == 0) return 0;
-  const size_t h = n / 2;
-  std::nth_element(v.begin(), v.begin() + h, v.end());
-  const double hi = v[h];
-  if (n % 2) return hi;
-  const double lo = *std::max_element(v.begin(), v.begin() + h);
-  return 0.5 * (lo + hi);
-}
 
 
 void checkOptions(double tau0, const RestOptions& o) {
@@ -78,7 +68,7 @@ void blockStatsOf(const double* x, size_t n, double clip_k, std::vector<double>*
   std::vector<double>& scratch_ = *scratch_p;
   std::vector<double>& d = *d_p;
   scratch_.assign(x, x + n);
-  const double med = medianOf(scratch_);
+  const double med = medianInPlace(scratch_);
   // First differences: robust unit, then an RMS within 5 units (quantized sensors: differences mostly 0 and +-LSB).
   d.resize(n - 1);
   double qmin = std::numeric_limits<double>::infinity();
@@ -88,9 +78,9 @@ void blockStatsOf(const double* x, size_t n, double clip_k, std::vector<double>*
     if (ad > 0 && ad < qmin) qmin = ad;
   }
   scratch_.assign(d.begin(), d.end());
-  const double dmed = medianOf(scratch_);
+  const double dmed = medianInPlace(scratch_);
   for (size_t i = 0; i < d.size(); ++i) scratch_[i] = std::fabs(d[i] - dmed);
-  const double mad = kMadToSigma * medianOf(scratch_);
+  const double mad = kMadToSigma * medianInPlace(scratch_);
   double unit = mad;
   if (std::isfinite(qmin)) unit = std::max(unit, qmin);
   double s2 = 0;
@@ -282,9 +272,9 @@ class RestEngine {
       double S = 1.0;
       if (static_cast<int>(w.size()) >= opts_.min_window_blocks) {
         scratch_.assign(w.begin(), w.end());
-        const double m = medianOf(scratch_);
+        const double m = medianInPlace(scratch_);
         for (size_t i = 0; i < w.size(); ++i) scratch_[i] = std::fabs(w[i] - m);
-        S = kMadToSigma * medianOf(scratch_);
+        S = kMadToSigma * medianInPlace(scratch_);
         if (S * pred > floor_[c]) max_spread_ = std::max(max_spread_, S);  // statistics below the floor never count
       }
       const double zn = std::fabs(z) / std::max(1.0, S);

@@ -1,6 +1,7 @@
 // Raw-sample diagnostics for the model check: Welch PSD, peaks, autocovariance, mean shifts, regression, outliers.
 #include "block_ranges.hpp"
 #include "gyro_allan/spectral.hpp"
+#include "gyro_allan/stats.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -16,18 +17,6 @@ namespace {
 void requireFinite(const std::vector<double>& x, const char* who) {
   for (double v : x)
     if (!std::isfinite(v)) throw std::invalid_argument(std::string(who) + ": non-finite sample");
-}
-
-double median(std::vector<double> v) {
-  if (v.empty()) return 0;
-  const size_t k = v.size() / 2;
-  std::nth_element(v.begin(), v.begin() + k, v.end());
-  double m = v[k];
-  if (v.size() % 2 == 0) {
-    const double lo = *std::max_element(v.begin(), v.begin() + k);
-    m = 0.5 * (m + lo);
-  }
-  return m;
 }
 
 }  // namespace
@@ -366,11 +355,7 @@ Outliers detectOutliers(const std::vector<double>& x, double tau0, double z_min,
     win.clear();
     for (int64_t j = lo; j < hi; ++j)
       if (j != i) win.push_back(x[static_cast<size_t>(j)]);
-    const size_t k = win.size() / 2;
-    std::nth_element(win.begin(), win.begin() + static_cast<long>(k), win.end());
-    double med = win[k];
-    if (win.size() % 2 == 0) med = 0.5 * (med + *std::max_element(win.begin(), win.begin() + static_cast<long>(k)));
-    return x[static_cast<size_t>(i)] - med;
+    return x[static_cast<size_t>(i)] - medianInPlace(win);
   };
   // Robust sigma: median absolute distance of 2^15-2^16 evenly spaced samples / 0.6745 (the MAD of 2^15 values is
   // within ~0.7 %: immaterial for a 10-sigma threshold).
@@ -379,7 +364,7 @@ Outliers detectOutliers(const std::vector<double>& x, double tau0, double z_min,
     std::vector<double> ad;
     ad.reserve(static_cast<size_t>(n / step + 1));
     for (int64_t i = 0; i < n; i += step) ad.push_back(std::fabs(devAt(i)));
-    out.robust_sigma = median(std::move(ad)) / 0.6745;
+    out.robust_sigma = medianInPlace(ad) / 0.6745;
   }
   if (!(out.robust_sigma > 0)) return out;
   const double limit = z_min * out.robust_sigma;

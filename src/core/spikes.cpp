@@ -2,6 +2,7 @@
 // sigma) used by both the batch removeSpikes and the streaming SpikeFilter. Rule: include/gyro_allan/spikes.hpp.
 #include "block_ranges.hpp"
 #include "gyro_allan/spikes.hpp"
+#include "gyro_allan/stats.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -23,22 +24,13 @@ struct View {
   double at(int64_t j) const { return data[j - base]; }
 };
 
-/// Median as detectOutliers takes it (the mean of the two middle values of an even count). Reorders w.
-double medianOf(std::vector<double>& w) {
-  const size_t k = w.size() / 2;
-  std::nth_element(w.begin(), w.begin() + static_cast<long>(k), w.end());
-  double med = w[k];
-  if (w.size() % 2 == 0) med = 0.5 * (med + *std::max_element(w.begin(), w.begin() + static_cast<long>(k)));
-  return med;
-}
-
 /// d_i: sample i minus the median of its +-h neighbours (itself excluded, the window cut at the segment ends).
 double neighbourDev(const View& v, int64_t i, int h, std::vector<double>& w) {
   const int64_t lo = std::max<int64_t>(0, i - h), hi = std::min<int64_t>(v.hi, i + h + 1);
   w.clear();
   for (int64_t j = lo; j < hi; ++j)
     if (j != i) w.push_back(v.at(j));
-  return v.at(i) - medianOf(w);
+  return v.at(i) - medianInPlace(w);
 }
 
 /// |d_i| > thr. A window (sample included) spanning at most thr cannot hold such a sample: checked first (cheap).
@@ -58,7 +50,7 @@ bool isCandidate(const View& v, int64_t i, int h, double thr, std::vector<double
 /// both are 0 (a quantized output whose d is mostly exactly 0), or 0 (nothing to measure against). Reorders ad.
 double scaleFromAbsDev(std::vector<double>& ad) {
   if (ad.empty()) return 0;
-  const double mad = medianOf(ad);
+  const double mad = medianInPlace(ad);
   const size_t k95 = static_cast<size_t>(std::floor(0.95 * static_cast<double>(ad.size() - 1)));
   std::nth_element(ad.begin(), ad.begin() + static_cast<long>(k95), ad.end());
   const double s = std::max(mad / 0.6745, ad[k95] / 1.96);
@@ -104,19 +96,19 @@ bool classifyRun(const View& v, int64_t s, int64_t e, const Rule& r, std::vector
     if (a == b) continue;
     w.clear();
     for (int64_t j = a; j < b; ++j) w.push_back(v.at(j));
-    const double m = medianOf(w);
+    const double m = medianInPlace(w);
     for (int64_t k = s; k < e; ++k)
       if (!(std::fabs(v.at(k) - m) > r.thr)) return false;
   }
   w.clear();
   for (int64_t j = l0; j < s; ++j) w.push_back(v.at(j));
   for (int64_t j = e; j < r1; ++j) w.push_back(v.at(j));
-  *replacement = medianOf(w);
+  *replacement = medianInPlace(w);
   // Local noise sigma: MAD of the same neighbours about their median / 0.6745 (local, so batch and streaming agree
   // whatever sigma each estimated).
   if (r.restore_noise) {
     for (double& y : w) y = std::fabs(y - *replacement);
-    *noise = medianOf(w) / 0.6745;
+    *noise = medianInPlace(w) / 0.6745;
   } else {
     *noise = 0;
   }

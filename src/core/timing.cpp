@@ -1,5 +1,6 @@
 // Timestamp and sample sanitation: drop bad samples, split at gaps, count everything.
 #include "gyro_allan/timing.hpp"
+#include "gyro_allan/stats.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -8,14 +9,6 @@
 #include <stdexcept>
 
 namespace gyro_allan {
-namespace {
-double median(std::vector<double> v) {
-  if (v.empty()) return 0;
-  const size_t mid = v.size() / 2;
-  std::nth_element(v.begin(), v.begin() + static_cast<long>(mid), v.end());
-  return v[mid];
-}
-}  // namespace
 
 std::vector<std::string> StampReport::warnings() const {
   std::vector<std::string> w;
@@ -122,9 +115,9 @@ ValueAnomalies detectValueAnomalies(const std::vector<double>& v, double min_rat
   for (size_t i = 0; i < v.size(); i += step)
     if (std::isfinite(v[i])) s.push_back(v[i]);
   if (s.empty()) return a;
-  const double m = median(s);
+  const double m = upperMedian(s);
   for (auto& x : s) x = std::fabs(x - m);
-  a.threshold = std::max(10 * 1.4826 * median(s), min_rate);
+  a.threshold = std::max(10 * 1.4826 * upperMedianInPlace(s), min_rate);
   for (size_t i = 0; i < v.size();) {
     size_t j = i + 1;
     while (j < v.size() && v[j] == v[i]) ++j;
@@ -190,7 +183,7 @@ double estimatePeriodImpl(size_t n, At at, size_t block) {
     const double span = at(n - 1) - at(0);
     return std::isfinite(span) && span > 0 ? span / static_cast<double>(n - 1) : 0.0;
   }
-  return median(std::move(slopes));
+  return upperMedianInPlace(slopes);
 }
 }  // namespace
 

@@ -6,6 +6,7 @@
 #include <stdexcept>
 
 #include "gyro_allan/wavelet.hpp"
+#include "gyro_allan/stats.hpp"
 
 namespace gyro_allan {
 
@@ -111,14 +112,7 @@ double wnoisest(const std::vector<double>& d) {
   if (d.empty()) throw std::invalid_argument("wnoisest: empty coefficient vector");
   std::vector<double> a(d.size());
   for (size_t i = 0; i < d.size(); ++i) a[i] = std::fabs(d[i]);
-  const size_t mid = a.size() / 2;
-  std::nth_element(a.begin(), a.begin() + mid, a.end());
-  double med = a[mid];
-  if (a.size() % 2 == 0) {
-    const double lower = *std::max_element(a.begin(), a.begin() + mid);
-    med = 0.5 * (med + lower);
-  }
-  return med / 0.6745;
+  return medianInPlace(a) / 0.6745;
 }
 
 WdenResult wden(const std::vector<double>& x, const WdenOptions& options) {

@@ -1,5 +1,6 @@
 // Wavelet split pipeline: wden split of the rate, oadev of both parts, Q from the removed part, N from coarse scales.
 #include "gyro_allan/wavelet_split.hpp"
+#include "gyro_allan/stats.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -89,12 +90,6 @@ struct AngleView {
   size_t size() const { return n; }
   double operator[](size_t i) const { return p[i]; }
 };
-
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  const size_t n = v.size();
-  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
 
 DeviationCurve restrictTau(const DeviationCurve& c, double tau_min) {
   DeviationCurve r = c;

@@ -22,6 +22,15 @@ YAML::Node num(double v) {
   return YAML::Node(std::string(buf));
 }
 
+/// A string scalar: tagged "!" (YAML's non-specific tag of a quoted scalar, never printed by the emitter) so that
+/// toJson writes it as a JSON string whatever it looks like. Every text value of the report goes through str();
+/// numbers come from num() or integers, flags from bool.
+YAML::Node str(const std::string& s) {
+  YAML::Node n(s);
+  n.SetTag("!");
+  return n;
+}
+
 YAML::Node coefficientNode(const Coefficient& c, const char* unit) {
   YAML::Node n;
   n["value"] = num(c.value);
@@ -35,7 +44,7 @@ YAML::Node coefficientNode(const Coefficient& c, const char* unit) {
   n["interval_95"] = YAML::Node(YAML::NodeType::Sequence);
   n["interval_95"].push_back(num(c.lo95));
   n["interval_95"].push_back(num(c.hi95));
-  n["unit"] = unit;
+  n["unit"] = str(unit);
   return n;
 }
 
@@ -56,10 +65,10 @@ YAML::Node errorNode(double rms_log10, double chi2_dof) {
 YAML::Node splitNode(const WaveletSplitResult& w) {
   YAML::Node n;
   n["ok"] = w.ok;
-  if (!w.ok) n["message"] = w.message;
+  if (!w.ok) n["message"] = str(w.message);
   n["coefficients"] = coefficientsNode(w.terms);
   n["fit"] = errorNode(w.fit_error.rms_log10, w.fit_error.chi2_dof);
-  n["wavelet"] = w.wavelet;
+  n["wavelet"] = str(w.wavelet);
   n["level"] = w.level;
   n["split_frequency_hz"] = num(w.split_frequency_hz);
   n["kept_fraction"] = num(w.kept_fraction);
@@ -82,23 +91,23 @@ YAML::Node splitNode(const WaveletSplitResult& w) {
 YAML::Node checkNode(const ModelCheck& c) {
   YAML::Node n;
   n["before"] = errorNode(c.before.rms_log10, c.before.chi2_dof);
-  n["residual"] = c.residual_before.summary;
+  n["residual"] = str(c.residual_before.summary);
   n["effects"] = YAML::Node(YAML::NodeType::Sequence);
   for (const auto& e : c.effects) {
     YAML::Node en;
-    en["type"] = e.type;
+    en["type"] = str(e.type);
     for (const auto& kv : e.parameters) {
       en["parameters"][kv.first]["value"] = num(kv.second.value);
       en["parameters"][kv.first]["sigma"] = num(kv.second.sigma);
     }
-    en["evidence"] = e.evidence;
+    en["evidence"] = str(e.evidence);
     en["delta_bic"] = num(e.delta_bic);
     n["effects"].push_back(en);
   }
   n["after"] = errorNode(c.after.rms_log10, c.after.chi2_dof);
   n["coefficients"] = coefficientsNode(c.fit_after);
   n["rejected"] = YAML::Node(YAML::NodeType::Sequence);
-  for (const auto& r : c.rejected) n["rejected"].push_back(r);
+  for (const auto& r : c.rejected) n["rejected"].push_back(str(r));
   return n;
 }
 
@@ -127,7 +136,7 @@ YAML::Node spikesNode(const AxisAnalysis& a, double (*factor)(int), const char* 
       YAML::Node tn = coefficientNode(k, si_unit(t));
       tn["conventional"]["value"] = num(k.value * factor(t));
       tn["conventional"]["sigma"] = num(k.sigma * factor(t));
-      tn["conventional"]["unit"] = conv_unit(t);
+      tn["conventional"]["unit"] = str(conv_unit(t));
       c[noiseTermKey(t)] = tn;
     }
     n["coefficients_with_spikes"] = c;
@@ -157,25 +166,25 @@ std::string spikesLine(const AxisAnalysis& a, const char* label, double factor, 
 YAML::Node fitNode(const FitResult& fit) {
   YAML::Node n;
   n["ok"] = fit.ok;
-  if (!fit.ok) n["message"] = fit.message;
+  if (!fit.ok) n["message"] = str(fit.message);
   n["rms_log10"] = num(fit.rms_log10);
   n["chi2_dof"] = num(fit.chi2_dof);
   n["dof"] = fit.dof;
   n["rms_points"] = fit.n_rms;
   if (fit.gls) {
-    n["weighting"] = "gls";
+    n["weighting"] = str("gls");
     n["chi2_p"] = num(fit.chi2_p);
-    n["uncertainty"] = fit.uncertainty;
+    n["uncertainty"] = str(fit.uncertainty);
     n["uncertainty_inflation"] = num(fit.uncertainty_inflation);
     // Generalized chi-squared a selected term saves (or an unselected one would save); selection needs > penalty.
     for (int t = 0; t < kNumTerms; ++t) n["evidence_chi2"][noiseTermKey(t)] = num(fit.evidence[static_cast<size_t>(t)]);
     // Selected, then dropped: the selection-corrected value is 0 (noise_model.hpp terms_corrected).
     YAML::Node dropped(YAML::NodeType::Sequence);
     for (int t = 0; t < kNumTerms; ++t)
-      if (fit.dropped_by_correction[static_cast<size_t>(t)]) dropped.push_back(noiseTermKey(t));
+      if (fit.dropped_by_correction[static_cast<size_t>(t)]) dropped.push_back(str(noiseTermKey(t)));
     n["dropped_by_selection_correction"] = dropped;
   } else {
-    n["weighting"] = "edf";
+    n["weighting"] = str("edf");
   }
   return n;
 }
@@ -184,9 +193,9 @@ YAML::Node fitNode(const FitResult& fit) {
 YAML::Node quantizedNode(const QuantizedOutput& q) {
   YAML::Node n;
   n["quantum"] = num(q.quantum_rate);
-  n["quantum_unit"] = "rad/s";
+  n["quantum_unit"] = str("rad/s");
   n["pulse_weight"] = num(q.pulse_weight);
-  n["pulse_weight_unit"] = "rad";
+  n["pulse_weight_unit"] = str("rad");
   n["offset"] = num(q.offset);
   n["fraction_on_lattice"] = num(q.fraction_on_lattice);
   n["levels"] = q.levels;
@@ -195,14 +204,14 @@ YAML::Node quantizedNode(const QuantizedOutput& q) {
   n["two_level_fraction"] = num(q.two_level_fraction);
   n["alias_hz"] = num(q.alias_hz);
   n["line_to_floor"] = num(q.line_to_floor);
-  n["summary"] = q.summary;
+  n["summary"] = str(q.summary);
   return n;
 }
 
 /// Quality fields of an axis node.
 void addQuality(YAML::Node* n, const AxisAnalysis& a) {
-  (*n)["quality"] = qualityName(a.quality.quality);
-  (*n)["quality_reason"] = a.quality.reason;
+  (*n)["quality"] = str(qualityName(a.quality.quality));
+  (*n)["quality_reason"] = str(a.quality.reason);
 }
 
 /// Printed lines after a table: the verdict of each axis that is not good, and (gyro) the quantized-output line.
@@ -236,6 +245,33 @@ void jsonString(std::ostringstream& o, const std::string& s) {
   o << '"';
 }
 
+/// True when s is a number in JSON's grammar: -?(0|[1-9][0-9]*)(.[0-9]+)?([eE][+-]?[0-9]+)? (what %.10g and
+/// integers print; strtod would also take "inf", "0x1p3", "1." or " 1", none of them JSON).
+bool isJsonNumber(const std::string& s) {
+  size_t i = 0;
+  const size_t n = s.size();
+  auto digits = [&]() {
+    const size_t b = i;
+    while (i < n && s[i] >= '0' && s[i] <= '9') ++i;
+    return i - b;
+  };
+  if (i < n && s[i] == '-') ++i;
+  if (i < n && s[i] == '0') ++i;
+  else if (digits() == 0) return false;
+  if (i < n && s[i] == '.') {
+    ++i;
+    if (digits() == 0) return false;
+  }
+  if (i < n && (s[i] == 'e' || s[i] == 'E')) {
+    ++i;
+    if (i < n && (s[i] == '+' || s[i] == '-')) ++i;
+    if (digits() == 0) return false;
+  }
+  return i == n;
+}
+
+/// JSON of a report tree: the types are those the tree was built with (str() text, num() and integer numbers,
+/// bools), none guessed from a string's content; map keys are strings.
 void jsonValue(std::ostringstream& o, const YAML::Node& n, int indent) {
   const std::string pad(static_cast<size_t>(indent) * 2, ' ');
   const std::string pad2(static_cast<size_t>(indent + 1) * 2, ' ');
@@ -258,19 +294,12 @@ void jsonValue(std::ostringstream& o, const YAML::Node& n, int indent) {
     }
     o << "]";
   } else if (n.IsScalar()) {
-    const std::string s = n.Scalar();
-    if (s == "true" || s == "false") {
-      o << s;
-      return;
-    }
-    if (s == ".nan" || s == ".inf" || s == "-.inf") {
-      o << "null";
-      return;
-    }
-    char* end = nullptr;
-    std::strtod(s.c_str(), &end);
-    if (!s.empty() && end && *end == '\0' && n.Tag() != "!") o << s;
-    else jsonString(o, s);
+    const std::string& s = n.Scalar();
+    if (n.Tag() == "!") jsonString(o, s);                           // text (str())
+    else if (s == "true" || s == "false") o << s;                   // bool
+    else if (s == ".nan" || s == ".inf" || s == "-.inf") o << "null";  // num() of a non-finite value: JSON has none
+    else if (isJsonNumber(s)) o << s;                               // num() or an integer
+    else jsonString(o, s);                                          // not a number: only a string can hold it
   } else {
     o << "null";
   }
@@ -287,16 +316,16 @@ std::string fmtCoef(const Coefficient& c, double factor) {
 
 YAML::Node buildReport(const ReportMeta& meta, const std::vector<AxisAnalysis>& axes) {
   YAML::Node r;
-  r["tool"] = "gyro_allan analyze_bag";
-  r["version"] = "0.1.0";
+  r["tool"] = str("gyro_allan analyze_bag");
+  r["version"] = str("0.1.0");
   YAML::Node in;
-  for (const auto& s : meta.sources) in["sources"].push_back(s);
-  if (!meta.topic.empty()) in["topic"] = meta.topic;
-  in["kind"] = meta.input;
-  in["units"] = meta.input_units;
+  for (const auto& s : meta.sources) in["sources"].push_back(str(s));
+  if (!meta.topic.empty()) in["topic"] = str(meta.topic);
+  in["kind"] = str(meta.input);
+  in["units"] = str(meta.input_units);
   r["input"] = in;
-  r["method"] = meta.method;
-  r["tau_grid"] = meta.tau_grid;
+  r["method"] = str(meta.method);
+  r["tau_grid"] = str(meta.tau_grid);
   r["confidence"] = num(meta.confidence);
   YAML::Node st;
   st["input"] = meta.stamps.input;
@@ -321,9 +350,10 @@ YAML::Node buildReport(const ReportMeta& meta, const std::vector<AxisAnalysis>& 
   if (meta.rest_checked) {
     YAML::Node m;
     m["at_rest"] = meta.rest.at_rest;
-    m["analysed"] = meta.rest.at_rest ? "whole record" : (meta.rest_restricted ? "longest static stretch" : "whole record (not checked)");
-    m["reason"] = meta.rest.reason;
-    if (!meta.rest.channel.empty()) m["channel"] = meta.rest.channel;
+    m["analysed"] = str(meta.rest.at_rest ? "whole record"
+                                          : (meta.rest_restricted ? "longest static stretch" : "whole record (not checked)"));
+    m["reason"] = str(meta.rest.reason);
+    if (!meta.rest.channel.empty()) m["channel"] = str(meta.rest.channel);
     m["moving_fraction"] = num(meta.rest.moving_fraction);
     m["score"] = num(meta.rest.score);
     m["spread"] = num(meta.rest.spread);
@@ -337,7 +367,7 @@ YAML::Node buildReport(const ReportMeta& meta, const std::vector<AxisAnalysis>& 
     r["motion"] = m;
   }
   r["warnings"] = YAML::Node(YAML::NodeType::Sequence);
-  for (const auto& w : meta.warnings) r["warnings"].push_back(w);
+  for (const auto& w : meta.warnings) r["warnings"].push_back(str(w));
   YAML::Node ax;
   for (const auto& a : axes) {
     YAML::Node n;
@@ -346,8 +376,8 @@ YAML::Node buildReport(const ReportMeta& meta, const std::vector<AxisAnalysis>& 
     n["rate_hz"] = num(a.rate_hz);
     n["duration_s"] = num(a.duration_s);
     n["mean"] = num(a.mean);
-    n["method"] = a.method;
-    n["method_reason"] = a.method_reason;
+    n["method"] = str(a.method);
+    n["method_reason"] = str(a.method_reason);
     n["coefficients"] = coefficientsNode(a.coefficients);
     n["fit"] = errorNode(a.final_error.rms_log10, a.final_error.chi2_dof);
     addQuality(&n, a);
@@ -361,7 +391,7 @@ YAML::Node buildReport(const ReportMeta& meta, const std::vector<AxisAnalysis>& 
     if (a.spikes_checked)
       n["spikes"] = spikesNode(a, conventionalFactor, conventionalUnit, noiseTermUnit, "rad_s");
     if (!a.notes.empty())
-      for (const auto& note : a.notes) n["notes"].push_back(note);
+      for (const auto& note : a.notes) n["notes"].push_back(str(note));
     ax[a.axis] = n;
   }
   r["axes"] = ax;
@@ -478,8 +508,8 @@ std::string summaryTable(const std::vector<AxisAnalysis>& axes) {
 
 YAML::Node accelerometerNode(const std::vector<AxisAnalysis>& axes, const std::vector<double>& means) {
   YAML::Node r;
-  r["note"] = "same IEEE 952 model on linear_acceleration (mean, i.e. gravity, removed); joint fit only: no wavelet "
-              "split or model check";
+  r["note"] = str("same IEEE 952 model on linear_acceleration (mean, i.e. gravity, removed); joint fit only: no "
+                  "wavelet split or model check");
   for (size_t i = 0; i < axes.size(); ++i) {
     const AxisAnalysis& a = axes[i];
     std::string key = a.axis;
@@ -487,8 +517,8 @@ YAML::Node accelerometerNode(const std::vector<AxisAnalysis>& axes, const std::v
     YAML::Node n;
     n["samples"] = a.samples;
     n["mean"] = num(i < means.size() ? means[i] : a.mean);
-    n["mean_unit"] = "m/s^2";
-    n["method"] = a.method;
+    n["mean_unit"] = str("m/s^2");
+    n["method"] = str(a.method);
     YAML::Node c;
     for (int t = 0; t < kNumTerms; ++t) {
       static const char* keys[] = {"velocity_quantization", "velocity_random_walk", "bias_instability",

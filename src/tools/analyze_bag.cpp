@@ -62,7 +62,7 @@ Input
   --bag-time             use the bag receive time instead of header.stamp
   --start S              skip the first S seconds (default 0)
   --duration S           analyse at most S seconds (default: all)
-  --csv FILE             a CSV or single-column text file instead of bags (.gz read through gzip)
+  --csv FILE             a CSV or single-column text file instead of bags (.gz: gzip-compressed)
   --rate HZ              sample rate of the CSV (required with --csv unless it has a time column)
   --units U              CSV units: rad/s (default) or deg/s; for --input angle: rad or deg
   --input K              rate (default) or angle (accumulated angle samples, e.g. RLG/FOG pulse output)

@@ -59,6 +59,7 @@
 #include "gyro_allan/analysis.hpp"
 #include "gyro_allan/noise_model.hpp"
 #include "gyro_allan/simulate.hpp"
+#include "gyro_allan/stats.hpp"
 
 using namespace gyro_allan;
 
@@ -193,13 +194,6 @@ struct Cell {
     rel.insert(rel.end(), o.rel.begin(), o.rel.end());
   }
 };
-
-double median(std::vector<double> v) {
-  if (v.empty()) return std::nan("");
-  std::sort(v.begin(), v.end());
-  const size_t m = v.size() / 2;
-  return v.size() % 2 ? v[m] : 0.5 * (v[m - 1] + v[m]);
-}
 
 /// "0.650±0.107" (8 + 1 + 5 chars), or "-" when n == 0.
 std::string prop(int k, int n) {

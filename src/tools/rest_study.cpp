@@ -20,6 +20,7 @@
 #include "gyro_allan/io/bag_input.hpp"
 #include "gyro_allan/rest.hpp"
 #include "gyro_allan/simulate.hpp"
+#include "gyro_allan/stats.hpp"
 
 namespace rest_study {
 
@@ -353,9 +354,7 @@ Record loadBag(const std::string& path, const std::string& topic) {
   const std::vector<int64_t> t = s.t.toNanoseconds();
   std::vector<double> dt;
   for (size_t i = 1; i < t.size(); ++i) dt.push_back((t[i] - t[i - 1]) * 1e-9);
-  std::vector<double> tmp(dt);
-  std::nth_element(tmp.begin(), tmp.begin() + tmp.size() / 2, tmp.end());
-  r.tau0 = tmp[tmp.size() / 2];
+  r.tau0 = upperMedian(dt);
   r.name = path.substr(path.find_last_of('/') + 1);
   std::vector<std::vector<double>> g(3), a(3);
   for (int k = 0; k < 3; ++k) g[k] = s.gyro[k].toVector(), a[k] = s.accel[k].toVector();

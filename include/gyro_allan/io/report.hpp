@@ -33,7 +33,8 @@ struct ReportMeta {
 
 /// The report as a YAML tree (schema in README "report.yaml").
 YAML::Node buildReport(const ReportMeta& meta, const std::vector<AxisAnalysis>& axes);
-/// YAML text or JSON text of a tree.
+/// YAML text or JSON text of a tree. JSON keeps the types the tree was built with (text from report.cpp's str()
+/// stays a string however it looks; numbers, integers and bools as such; NaN/inf as null).
 std::string toYaml(const YAML::Node& node);
 std::string toJson(const YAML::Node& node);
 /// allan.csv: one row per (axis, deviation, tau); columns in README.

@@ -1,0 +1,25 @@
+// Order statistics shared by the core and the tools: the median in O(n), in the two even-count conventions in use.
+#pragma once
+
+#include <vector>
+
+namespace gyro_allan {
+
+/// Median of v: the middle value for odd n, the mean of the two middle values for even n; NaN when v is empty.
+/// Reorders v (std::nth_element, O(n)): pass a scratch copy when the order matters.
+double medianInPlace(std::vector<double>& v);
+
+/// median of a copy of v (medianInPlace).
+inline double median(std::vector<double> v) { return medianInPlace(v); }
+
+/// Upper median: the value of rank n/2 (0-based) of the sorted v, i.e. the middle value for odd n and the larger of
+/// the two middle values for even n; NaN when v is empty. Always one of the samples (a sample interval, a PSD bin).
+/// It is what the stamp-period, value-anomaly, step-location and quantization-line estimates were tuned with; for
+/// their large n it differs from median() by less than the spacing of neighbouring samples, but it is kept so that
+/// their results do not move. Reorders v (std::nth_element, O(n)).
+double upperMedianInPlace(std::vector<double>& v);
+
+/// upperMedian of a copy of v (upperMedianInPlace).
+inline double upperMedian(std::vector<double> v) { return upperMedianInPlace(v); }
+
+}  // namespace gyro_allan
