@@ -19,7 +19,12 @@ struct AnalysisOptions {
   DeviationOptions deviation;                       ///< tau grid and confidence of every curve
   FitOptions fit;                                   ///< IEEE 952 fit settings
   std::vector<std::string> deviations{"oadev"};     ///< curves written out; the fit always uses oadev
-  InputKind input = InputKind::Rate;                ///< rate samples (rad/s) or angle samples (rad)
+  /// Rate samples (rad/s) or angle samples (rad). Angle input is turned into rate samples first (angleToRate, per
+  /// gap-free segment); the deviations, the fit, the wavelet split and the model check then run as for rate input
+  /// (spike removal does not: a jump in an angle record is not an isolated rate spike).
+  InputKind input = InputKind::Rate;
+  /// Angle input only: the samples are per-sample increments [rad] instead of the accumulated angle.
+  bool angle_increments = false;
   /// Method whose coefficients are the answer: "auto" (wavelet_split when quantization dominates the shortest tau,
   /// else joint_fit), "joint_fit" or "wavelet_split".
   std::string method = "auto";
@@ -39,11 +44,11 @@ struct AnalysisOptions {
 
 struct AxisAnalysis {
   std::string axis;                 ///< "x", "y", "z" (or a CSV column name)
-  int64_t samples = 0;              ///< samples used (sum over segments)
+  int64_t samples = 0;              ///< rate samples used (sum over segments); angle input: its intervals
   int segments = 0;                 ///< gap-free segments
   double rate_hz = 0;
   double duration_s = 0;            ///< samples / rate (time actually covered, gaps excluded)
-  double mean = 0;                  ///< mean of the samples (bias for rate input), SI
+  double mean = 0;                  ///< mean of the rate samples (bias), SI; for angle input, of the rates from it
   DeviationCurve oadev;             ///< the curve the model is fitted to
   std::vector<DeviationCurve> curves;  ///< requested deviations, in the order asked
   FitResult fit;                    ///< joint_fit: IEEE 952 fit of oadev
@@ -68,11 +73,17 @@ struct AxisAnalysis {
   bool has_with_spikes = false;
   std::array<Coefficient, kNumTerms> coefficients_with_spikes;
   FitError error_with_spikes;       ///< rms_log10 / chi2_dof of that fit
-  /// Rate input: is the output on a lattice (pulse counter, ADC LSB), and an undithered counter's sawtooth?
+  /// Rate input (and angle input, of its rates): is the output on a lattice (pulse counter, ADC LSB), and an undithered counter's sawtooth?
   /// (quantized_output.hpp; on the longest gap-free segment, as read: before spike removal)
   QuantizedOutput quantized;
   QualityVerdict quality;           ///< verdict on `coefficients` (quality.hpp), set by finish()
 };
+
+/// Rate samples [rad/s] of one gap-free segment of angle samples, in place: an accumulated angle theta (n points)
+/// gives the n - 1 rates (theta[k+1] - theta[k]) / tau0; increments delta (n) give the n rates delta[k] / tau0.
+/// The overlapping Allan variance (any deviation) of those rates is that of the angle (second differences of the
+/// same phase points). A segment of fewer than 2 accumulated points becomes empty.
+void angleToRate(std::vector<double>* segment, double tau0, bool increments);
 
 /// Validates options (throws std::invalid_argument naming the problem) and analyses one axis.
 /// Throws std::invalid_argument when the data is too short for any Allan point.
@@ -106,6 +117,7 @@ class AxisStages {
   AxisAnalysis a_;
   DeviationCurve raw_oadev_;
   size_t longest_ = 0;
+  bool angle_points_ = false;  ///< the input was accumulated angle: each segment had one point more than its rates
   bool prepared_ = false;
   std::string split_note_, check_note_;
 };

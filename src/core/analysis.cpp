@@ -43,6 +43,20 @@ void enforceRedderWithTau(DeviationCurve* curve, double confidence) {
   if (changed) fillConfidence(curve, confidence);
 }
 
+void angleToRate(std::vector<double>* segment, double tau0, bool increments) {
+  std::vector<double>& v = *segment;
+  if (increments) {
+    for (double& x : v) x /= tau0;
+    return;
+  }
+  if (v.size() < 2) {
+    v.clear();
+    return;
+  }
+  for (size_t k = 0; k + 1 < v.size(); ++k) v[k] = (v[k + 1] - v[k]) / tau0;
+  v.pop_back();
+}
+
 AxisStages::AxisStages(std::string axis, std::vector<std::vector<double>> segments, double tau0,
                        const AnalysisOptions& options, const std::vector<std::vector<double>>* temperature)
     : axis_(std::move(axis)), segments_(std::move(segments)), tau0_(tau0), options_(options), temperature_(temperature) {}
@@ -64,6 +78,11 @@ void AxisStages::prepare() {
     if (!isDeviationName(d)) throw std::invalid_argument("unknown deviation '" + d + "'");
   const bool spikes_on = options.remove_spikes && options.input == InputKind::Rate;
   if (spikes_on) validateSpikeOptions(options.spikes);
+  if (options.input == InputKind::Angle) {
+    // From here on the samples are rates (in place, no copy): every stage runs as for rate input.
+    for (auto& s : segments_) angleToRate(&s, tau0, options.angle_increments);
+    angle_points_ = !options.angle_increments;
+  }
   a.axis = axis;
   a.rate_hz = 1.0 / tau0;
   long double sum = 0;
@@ -79,7 +98,7 @@ void AxisStages::prepare() {
   if (a.samples < 3) throw std::invalid_argument("axis " + axis + ": too few samples (" + std::to_string(a.samples) + ")");
   a.mean = static_cast<double>(sum / a.samples);
   a.duration_s = static_cast<double>(a.samples) * tau0;
-  if (options.input == InputKind::Rate) a.quantized = detectQuantizedOutput(segments, tau0);  // before spike removal
+  a.quantized = detectQuantizedOutput(segments, tau0);  // before spike removal
   if (spikes_on && a.quantized.quantized && a.quantized.two_level_fraction >= 0.9) {
     // A pulse counter whose noise is below one count (>= 90 % of samples on the two counts around the mean): each
     // pulse is an isolated jump of one count and the spike rule would take every one of them (2 % of an undithered
@@ -88,7 +107,7 @@ void AxisStages::prepare() {
   } else if (spikes_on) {
     removeSegmentSpikes();
   }
-  a.oadev = computeDeviation("oadev", segments, options.input, tau0, options.deviation);
+  a.oadev = computeDeviation("oadev", segments, InputKind::Rate, tau0, options.deviation);
   raw_oadev_ = a.oadev;  // as computed, for the wavelet split's own fit error
   enforceRedderWithTau(&a.oadev, options.deviation.confidence);
   if (a.oadev.points.empty())
@@ -97,7 +116,7 @@ void AxisStages::prepare() {
     if (d == "oadev") {
       a.curves.push_back(a.oadev);
     } else {
-      a.curves.push_back(computeDeviation(d, segments, options.input, tau0, options.deviation));
+      a.curves.push_back(computeDeviation(d, segments, InputKind::Rate, tau0, options.deviation));
       enforceRedderWithTau(&a.curves.back(), options.deviation.confidence);
     }
   {
@@ -125,8 +144,6 @@ void AxisStages::prepare() {
   if (a.segments > 1)
     a.notes.push_back("wavelet split and model check use the longest gap-free segment (" +
                       std::to_string(segments[longest_].size()) + " of " + std::to_string(a.samples) + " samples)");
-  if (options.input != InputKind::Rate && (options.wavelet_split || options.model_check))
-    a.notes.push_back("wavelet split and model check need rate samples: skipped for angle input");
   prepared_ = true;
 }
 
@@ -181,7 +198,7 @@ void AxisStages::removeSegmentSpikes() {
 
 void AxisStages::split() {
   if (!prepared_) throw std::logic_error("AxisStages::split before prepare");
-  if (options_.input != InputKind::Rate || !options_.wavelet_split) return;
+  if (!options_.wavelet_split) return;
   WaveletSplitOptions so = options_.split;
   so.deviation = options_.deviation;
   try {
@@ -196,13 +213,21 @@ void AxisStages::split() {
 
 void AxisStages::check() {
   if (!prepared_) throw std::logic_error("AxisStages::check before prepare");
-  if (options_.input != InputKind::Rate || !options_.model_check || !a_.fit.ok) return;
+  if (!options_.model_check || !a_.fit.ok) return;
   ModelCheckOptions co = options_.check;
   co.fit = options_.fit;
   const std::vector<double>& rate_seg = segments_[longest_];
   const std::vector<double>* temp = nullptr;
-  if (temperature_ && longest_ < temperature_->size() && (*temperature_)[longest_].size() == rate_seg.size())
-    temp = &(*temperature_)[longest_];
+  std::vector<double> temp_rates;  // accumulated angle: one temperature per angle point, the rate k takes point k's
+  if (temperature_ && longest_ < temperature_->size()) {
+    const std::vector<double>& ts = (*temperature_)[longest_];
+    if (ts.size() == rate_seg.size()) {
+      temp = &ts;
+    } else if (angle_points_ && ts.size() == rate_seg.size() + 1) {
+      temp_rates.assign(ts.begin(), ts.end() - 1);
+      temp = &temp_rates;
+    }
+  }
   try {
     a_.check = checkModel(rate_seg, tau0_, a_.oadev, a_.fit, co, temp);
     a_.has_check = a_.check.ok;

@@ -1,4 +1,4 @@
-// Direct chunk-by-chunk reader of ROS bag format 2.0 for sensor_msgs/Imu (+ Temperature): no per-message index.
+// Direct chunk-by-chunk reader of ROS bag format 2.0 for sensor_msgs/Imu or Vector3Stamped angles (+ Temperature): no per-message index.
 //
 // Format (wiki.ros.org/Bags/Format/2.0): "#ROSBAG V2.0\n", then records of
 //   uint32 header_len, header = fields (uint32 len, "name=value"), uint32 data_len, data.
@@ -24,6 +24,7 @@
 #include <roslz4/lz4s.h>
 #include <ros/serialization.h>
 #include <ros/time.h>
+#include <geometry_msgs/Vector3Stamped.h>
 #include <sensor_msgs/Imu.h>
 #include <sensor_msgs/Temperature.h>
 
@@ -32,6 +33,7 @@ namespace {
 
 
 const char* kImuType = "sensor_msgs/Imu";
+const char* kAngleType = "geometry_msgs/Vector3Stamped";
 constexpr uint8_t kOpMessage = 0x02, kOpBagHeader = 0x03, kOpChunk = 0x05, kOpChunkInfo = 0x06, kOpConnection = 0x07;
 
 /// Any reason to leave the bag to rosbag.
@@ -333,13 +335,16 @@ bool readImuBagsDirect(const std::vector<std::string>& paths, const BagReadOptio
           if (it == b.connections.end()) return false;
           if (it->second.topic == topic) total += kv.second;
         }
+    const bool angle = !options.angle_topic.empty();
     for (auto& x : s.gyro) x.reserve(total);
-    for (auto& x : s.accel) x.reserve(total);
+    if (!angle)
+      for (auto& x : s.accel) x.reserve(total);
     s.t.reserve(total);
     const bool show = options.progress && isatty(fileno(stderr));
     size_t next_report = total / 50 + 1;
     bag_detail::ImuAppender app(&s, options);
     sensor_msgs::Imu imu;  // reused for every message
+    geometry_msgs::Vector3Stamped vec;  // the same, for an angle topic
     sensor_msgs::Temperature tm;
     std::vector<ros::Time> temp_abs;
     std::string chunk;
@@ -349,8 +354,12 @@ bool readImuBagsDirect(const std::vector<std::string>& paths, const BagReadOptio
       std::map<uint32_t, int> wanted;
       for (const auto& kv : b.connections) {
         if (kv.second.topic == topic) {
-          if (kv.second.type != kImuType || !md5Matches(kv.second.md5, ros::message_traits::MD5Sum<sensor_msgs::Imu>::value()))
-            return false;  // rosbag reports the mismatch
+          const bool ok = angle ? kv.second.type == kAngleType &&
+                                      md5Matches(kv.second.md5,
+                                                 ros::message_traits::MD5Sum<geometry_msgs::Vector3Stamped>::value())
+                                : kv.second.type == kImuType &&
+                                      md5Matches(kv.second.md5, ros::message_traits::MD5Sum<sensor_msgs::Imu>::value());
+          if (!ok) return false;  // rosbag reports the mismatch
           wanted[kv.first] = 1;
         } else if (!temp_topic.empty() && kv.second.topic == temp_topic) {
           if (md5Matches(kv.second.md5, ros::message_traits::MD5Sum<sensor_msgs::Temperature>::value()))
@@ -398,8 +407,13 @@ bool readImuBagsDirect(const std::vector<std::string>& paths, const BagReadOptio
             s.temperature.push_back(tm.temperature);
             continue;
           }
-          deserialize(data, dlen, &imu);
-          app.add(rec_time, imu);
+          if (angle) {
+            deserialize(data, dlen, &vec);
+            app.add(rec_time, vec);
+          } else {
+            deserialize(data, dlen, &imu);
+            app.add(rec_time, imu);
+          }
           const size_t done = app.offered();
           if (show && done >= next_report) {
             std::fprintf(stderr, "\rreading %s: %3.0f %%", topic.c_str(), 100.0 * done / std::max<size_t>(1, total));

@@ -8,6 +8,7 @@
 #include <map>
 
 #include <ros/time.h>
+#include <geometry_msgs/Vector3Stamped.h>
 #include <sensor_msgs/Imu.h>
 
 #include "gyro_allan/io/bag_input.hpp"
@@ -38,8 +39,8 @@ inline void finishTemperature(const std::vector<ros::Time>& abs, ros::Time* orig
   for (const auto& t : abs) rel->push_back(relativeStamp(t, origin));
 }
 
-/// The topic choice of readImuBags (the only sensor_msgs/Imu topic unless given; the only Temperature topic, if any,
-/// unless given or "-"): throws InputError naming the problem. `topics`: topic -> type over all bags.
+/// The topic choice of readImuBags (the only sensor_msgs/Imu topic unless given, or the given angle topic; the only
+/// Temperature topic, if any, unless given or "-"): throws InputError naming the problem. `topics`: topic -> type over all bags.
 void chooseTopics(const std::map<std::string, std::string>& topics, const BagReadOptions& options, std::string* topic,
                   std::string* temp_topic);
 
@@ -49,17 +50,7 @@ class ImuAppender {
  public:
   ImuAppender(ImuSeries* s, const BagReadOptions& o) : s_(s), o_(o) {}
   void add(const ros::Time& record_time, const sensor_msgs::Imu& imu) {
-    ++offered_;
-    const ros::Time stamp = o_.use_bag_time ? record_time : imu.header.stamp;
-    const int64_t t_ns = relativeStampNs(stamp, &origin_);
-    const double t = t_ns == 0 ? 0.0 : (stamp - origin_).toSec();  // as CompactStamps::toSeconds gives it
-    if (t_first_ < 0 && t != 0) t_first_ = t;
-    if (o_.start_s > 0 || o_.duration_s > 0) {
-      if (t_first_ >= 0 && t < t_first_ + o_.start_s) return;
-      if (o_.duration_s > 0 && t_first_ >= 0 && t >= t_first_ + o_.start_s + o_.duration_s) return;
-    }
-    if (s_->frame_id.empty()) s_->frame_id = imu.header.frame_id;
-    s_->t.push_back(t_ns);
+    if (!keep(record_time, imu.header)) return;
     s_->gyro[0].push_back(imu.angular_velocity.x);
     s_->gyro[1].push_back(imu.angular_velocity.y);
     s_->gyro[2].push_back(imu.angular_velocity.z);
@@ -67,12 +58,35 @@ class ImuAppender {
     s_->accel[1].push_back(imu.linear_acceleration.y);
     s_->accel[2].push_back(imu.linear_acceleration.z);
   }
+  /// An angle message (BagReadOptions::angle_topic): the same, with the vector as the three gyro values and no
+  /// accelerometer.
+  void add(const ros::Time& record_time, const geometry_msgs::Vector3Stamped& m) {
+    if (!keep(record_time, m.header)) return;
+    s_->gyro[0].push_back(m.vector.x);
+    s_->gyro[1].push_back(m.vector.y);
+    s_->gyro[2].push_back(m.vector.z);
+  }
   /// Messages offered so far (kept or not).
   size_t offered() const { return offered_; }
   /// Zero until the first non-zero stamp; temperature stamps are made relative to it at the end.
   ros::Time* origin() { return &origin_; }
 
  private:
+  /// Counts the message and, when it is in the time window, appends its stamp (and the frame id): true.
+  bool keep(const ros::Time& record_time, const std_msgs::Header& header) {
+    ++offered_;
+    const ros::Time stamp = o_.use_bag_time ? record_time : header.stamp;
+    const int64_t t_ns = relativeStampNs(stamp, &origin_);
+    const double t = t_ns == 0 ? 0.0 : (stamp - origin_).toSec();  // as CompactStamps::toSeconds gives it
+    if (t_first_ < 0 && t != 0) t_first_ = t;
+    if (o_.start_s > 0 || o_.duration_s > 0) {
+      if (t_first_ >= 0 && t < t_first_ + o_.start_s) return false;
+      if (o_.duration_s > 0 && t_first_ >= 0 && t >= t_first_ + o_.start_s + o_.duration_s) return false;
+    }
+    if (s_->frame_id.empty()) s_->frame_id = header.frame_id;
+    s_->t.push_back(t_ns);
+    return true;
+  }
   ImuSeries* s_;
   const BagReadOptions& o_;
   ros::Time origin_;

@@ -1,4 +1,4 @@
-// Streaming rosbag reader for sensor_msgs/Imu and sensor_msgs/Temperature.
+// Streaming rosbag reader for sensor_msgs/Imu (or geometry_msgs/Vector3Stamped angles) and sensor_msgs/Temperature.
 #include "gyro_allan/io/bag_input.hpp"
 
 #include "bag_direct.hpp"
@@ -14,6 +14,7 @@
 
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
+#include <geometry_msgs/Vector3Stamped.h>
 #include <sensor_msgs/Imu.h>
 #include <sensor_msgs/Temperature.h>
 
@@ -23,6 +24,7 @@ namespace {
 
 const char* kImuType = "sensor_msgs/Imu";
 const char* kTempType = "sensor_msgs/Temperature";
+const char* kAngleType = "geometry_msgs/Vector3Stamped";
 
 std::string joinTopics(const std::map<std::string, std::string>& topics) {
   std::string s;
@@ -44,7 +46,15 @@ namespace bag_detail {
 void chooseTopics(const std::map<std::string, std::string>& topics, const BagReadOptions& options, std::string* topic_out,
                   std::string* temp_topic_out) {
   std::string topic = options.topic;
-  if (!topic.empty()) {
+  if (!options.angle_topic.empty()) {
+    if (!topic.empty()) throw InputError("give an IMU topic or an angle topic, not both");
+    topic = options.angle_topic;
+    auto it = topics.find(topic);
+    if (it == topics.end())
+      throw InputError("angle topic '" + topic + "' is not in the bag (topics: " + joinTopics(topics) + ")");
+    if (it->second != kAngleType)
+      throw InputError("angle topic '" + topic + "' has type " + it->second + ", not " + kAngleType);
+  } else if (!topic.empty()) {
     auto it = topics.find(topic);
     if (it == topics.end()) throw InputError("topic '" + topic + "' is not in the bag (topics: " + joinTopics(topics) + ")");
     if (it->second != kImuType)
@@ -128,8 +138,10 @@ ImuSeries readImuBags(const std::vector<std::string>& paths, const BagReadOption
     rosbag::View v(*b.bag, rosbag::TopicQuery(topic));
     total += v.size();
   }
+  const bool angle = !options.angle_topic.empty();
   for (auto& x : s.gyro) x.reserve(total);
-  for (auto& x : s.accel) x.reserve(total);
+  if (!angle)
+    for (auto& x : s.accel) x.reserve(total);
   s.t.reserve(total);
   const bool show = options.progress && isatty(fileno(stderr));
   size_t next_report = total / 50 + 1;
@@ -149,9 +161,15 @@ ImuSeries readImuBags(const std::vector<std::string>& paths, const BagReadOption
           s.temperature.push_back(tm->temperature);
           continue;
         }
-        auto imu = m.instantiate<sensor_msgs::Imu>();
-        if (!imu) throw InputError("topic '" + topic + "' holds a message that is not " + kImuType);
-        app.add(m.getTime(), *imu);
+        if (angle) {
+          auto v = m.instantiate<geometry_msgs::Vector3Stamped>();
+          if (!v) throw InputError("angle topic '" + topic + "' holds a message that is not " + kAngleType);
+          app.add(m.getTime(), *v);
+        } else {
+          auto imu = m.instantiate<sensor_msgs::Imu>();
+          if (!imu) throw InputError("topic '" + topic + "' holds a message that is not " + kImuType);
+          app.add(m.getTime(), *imu);
+        }
         const size_t done = app.offered();
         if (show && done >= next_report) {
           std::fprintf(stderr, "\rreading %s: %3.0f %%", topic.c_str(), 100.0 * done / std::max<size_t>(1, total));

@@ -58,6 +58,9 @@ intervals, and the IEEE 952/647 noise-model fit (Q, N, B, K, R) per axis.
 Input
   BAG...                 rosbags with a sensor_msgs/Imu topic (several bags are stitched by time)
   --topic T              the sensor_msgs/Imu topic (default: the only one in the bags)
+  --angle-topic T        read angles instead: a geometry_msgs/Vector3Stamped topic, angle per axis [rad]
+  --angle-mode M         accumulated (default: the angle) or increment (angle per sample), for --angle-topic and
+                         --input angle
   --temperature-topic T  sensor_msgs/Temperature topic (default: the only one, if any; '-' = none)
   --bag-time             use the bag receive time instead of header.stamp
   --start S              skip the first S seconds (default 0)
@@ -65,7 +68,7 @@ Input
   --csv FILE             a CSV or single-column text file instead of bags (.gz: gzip-compressed)
   --rate HZ              sample rate of the CSV (required with --csv unless it has a time column)
   --units U              CSV units: rad/s (default) or deg/s; for --input angle: rad or deg
-  --input K              rate (default) or angle (accumulated angle samples, e.g. RLG/FOG pulse output)
+  --input K              rate (default) or angle (CSV angle samples, e.g. RLG/FOG pulse output; bags: --angle-topic)
   --batch DIR            analyse every DIR/*.bag on its own into OUTPUT/<bag name>/ and write OUTPUT/summary.csv
                          (one row per bag, sensor and axis; a failing bag is one row with its error)
 
@@ -111,7 +114,7 @@ Exit codes: 0 ok, 1 bad command line, 2 unusable input, 3 data not analysable, 4
 
 struct Args {
   std::vector<std::string> bags;
-  std::string topic, temperature_topic, csv, output = "allan_out", units, input = "rate", format = "yaml";
+  std::string topic, angle_topic, angle_mode = "accumulated", temperature_topic, csv, output = "allan_out", units, input = "rate", format = "yaml";
   std::string tau_grid = "log:10", deviations = "oadev", method = "auto";
   std::string batch, kalibr_axis = "worst";
   bool accel = true, plot = true;
@@ -144,6 +147,8 @@ Args parseArgs(int argc, char** argv) {
       std::cout << kUsage;
       std::exit(kExitOk);
     } else if (s == "--topic") a.topic = value();
+    else if (s == "--angle-topic") a.angle_topic = value();
+    else if (s == "--angle-mode") a.angle_mode = value();
     else if (s == "--temperature-topic") a.temperature_topic = value();
     else if (s == "--output" || s == "-o") a.output = value();
     else if (s == "--csv") a.csv = value();
@@ -185,6 +190,10 @@ Args parseArgs(int argc, char** argv) {
   if (!a.batch.empty() && (!a.csv.empty() || !a.bags.empty())) throw UsageError("--batch takes no other input");
   if (a.kalibr_axis != "worst" && a.kalibr_axis != "mean") throw UsageError("--kalibr-axis must be worst or mean");
   if (a.input != "rate" && a.input != "angle") throw UsageError("--input must be rate or angle");
+  if (a.angle_mode != "accumulated" && a.angle_mode != "increment")
+    throw UsageError("--angle-mode must be accumulated or increment");
+  if (!a.angle_topic.empty() && !a.topic.empty()) throw UsageError("give --topic or --angle-topic, not both");
+  if (!a.angle_topic.empty() && !a.csv.empty()) throw UsageError("--angle-topic is for bags; CSV angles: --input angle");
   if (a.format != "yaml" && a.format != "json") throw UsageError("--format must be yaml or json");
   if (a.rate < 0) throw UsageError("--rate must be > 0");
   if (!(a.confidence > 0 && a.confidence < 1)) throw UsageError("--confidence must be in (0, 1)");
@@ -433,7 +442,9 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
   if (opt.deviations.empty()) throw UsageError("--deviations is empty");
   for (const auto& d : opt.deviations)
     if (!isDeviationName(d)) throw UsageError("--deviations: unknown deviation '" + d + "'");
-  opt.input = args.input == "angle" ? InputKind::Angle : InputKind::Rate;
+  const bool angle_input = args.input == "angle" || !args.angle_topic.empty();
+  opt.input = angle_input ? InputKind::Angle : InputKind::Rate;
+  opt.angle_increments = angle_input && args.angle_mode == "increment";
   if (args.method != "auto" && args.method != "joint_fit" && args.method != "wavelet_split")
     throw UsageError("--method must be auto, joint_fit or wavelet_split");
   if (args.method == "wavelet_split" && !args.wavelet_split)
@@ -452,7 +463,7 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
   CompactStamps t_c;
   bool compact = false;
   meta.confidence = args.confidence;
-  meta.input = args.input;
+  meta.input = !angle_input ? "rate" : opt.angle_increments ? "angle_increment" : "angle";
   SanitizeOptions so;
   so.gap_factor = args.gap_factor;
 
@@ -484,9 +495,12 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
       so.nominal_rate_hz = args.rate;
     }
   } else {
-    if (args.input == "angle") throw UsageError("--input angle is for CSV input; bags carry sensor_msgs/Imu rates");
+    if (args.input == "angle")
+      throw UsageError("--input angle is for CSV input; bag angles: --angle-topic T (geometry_msgs/Vector3Stamped)");
     BagReadOptions bo;
     bo.topic = args.topic;
+    bo.angle_topic = args.angle_topic;
+    if (angle_input) meta.input_units = "rad";
     bo.temperature_topic = args.temperature_topic;
     bo.use_bag_time = args.bag_time;
     bo.start_s = args.start;

@@ -1,4 +1,4 @@
-// Reads sensor_msgs/Imu (and optional sensor_msgs/Temperature) from rosbags in one streaming pass into per-axis
+// Reads sensor_msgs/Imu or geometry_msgs/Vector3Stamped angles (and optional sensor_msgs/Temperature) from rosbags in one streaming pass into per-axis
 // sample arrays, with one-line errors for every way a bag can be unusable.
 #pragma once
 
@@ -19,6 +19,9 @@ struct InputError : std::runtime_error {
 
 struct BagReadOptions {
   std::string topic;              ///< sensor_msgs/Imu topic; empty = the only one in the bags
+  /// geometry_msgs/Vector3Stamped topic of angles per axis [rad] to read instead of an IMU topic (`topic` must then
+  /// be empty): its x, y, z go to ImuSeries::gyro, the accelerometer stays empty.
+  std::string angle_topic;
   std::string temperature_topic;  ///< sensor_msgs/Temperature topic; empty = the only one, if any; "-" = none
   bool use_bag_time = false;      ///< use the bag's receive time instead of header.stamp
   double start_s = 0;             ///< skip this many seconds from the first message
@@ -34,8 +37,8 @@ struct ImuSeries {
   std::string frame_id;
   std::vector<std::string> bags;           ///< in time order
   CompactStamps t;                         ///< stamps, ns since (first non-zero stamp - 1 s); 0 = zero stamp
-  std::array<CompactSeries, 3> gyro;       ///< angular_velocity x, y, z, rad/s
-  std::array<CompactSeries, 3> accel;      ///< linear_acceleration x, y, z, m/s^2
+  std::array<CompactSeries, 3> gyro;       ///< angular_velocity x, y, z, rad/s (angle topic: vector x, y, z, rad)
+  std::array<CompactSeries, 3> accel;      ///< linear_acceleration x, y, z, m/s^2 (angle topic: empty)
   std::string temperature_topic;           ///< empty when none was read
   std::vector<double> temperature_t, temperature;  ///< stamps [s, same origin as t] and degC
   int64_t messages = 0;
