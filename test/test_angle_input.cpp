@@ -90,8 +90,9 @@ TEST(AngleInput, SameAllanVarianceAsTheRate) {
     for (const auto& n : x->notes) EXPECT_EQ(n.find("skipped"), std::string::npos) << n;
     for (int t = 0; t < kNumTerms; ++t) {
       EXPECT_EQ(x->coefficients[t].supported, r.coefficients[t].supported) << t;
-      if (r.coefficients[t].supported)
+      if (r.coefficients[t].supported) {
         EXPECT_NEAR(x->coefficients[t].value / r.coefficients[t].value, 1.0, 1e-8) << t;
+      }
     }
   }
 }

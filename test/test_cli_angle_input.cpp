@@ -118,8 +118,9 @@ TEST_F(AngleCli, AngleTopicGivesTheRatesCoefficients) {
       EXPECT_NEAR(c["angle_random_walk"]["value"].as<double>() / kN, 1.0, 0.10) << mode << " " << ax;
       for (const char* t : {"quantization", "angle_random_walk", "bias_instability", "rate_random_walk", "rate_ramp"}) {
         ASSERT_EQ(c[t]["supported"].as<bool>(), rc[t]["supported"].as<bool>()) << mode << " " << ax << " " << t;
-        if (rc[t]["supported"].as<bool>())
+        if (rc[t]["supported"].as<bool>()) {
           EXPECT_NEAR(c[t]["value"].as<double>() / rc[t]["value"].as<double>(), 1.0, 1e-4) << mode << " " << ax << " " << t;
+        }
       }
     }
   }
