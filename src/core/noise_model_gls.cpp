@@ -289,30 +289,26 @@ FitResult fitNoiseModelGls(const DeviationCurve& curve, const FitOptions& option
   }
   const int n = static_cast<int>(P.idx.size());
   std::vector<int> pos;
+  for (int k = 0; k < ncol; ++k)
+    if (c[k] > 0) pos.push_back(k);
+  const double chi2 = (w.b - w.A * c).squaredNorm();
+  r.dof = std::max(1, n - static_cast<int>(pos.size()));
+  r.chi2 = chi2;
+  r.chi2_dof = chi2 / r.dof;
+  r.chi2_p = chi2UpperTail(chi2, r.dof);
+  r.uncertainty_inflation = (r.chi2_p < kMisfitP && r.chi2_dof > 1) ? r.chi2_dof : 1.0;
   // Evidence: chi-squared change when each IEEE term leaves or joins the final set (same covariance).
-  auto statistics = [&]() {
-    pos.clear();
-    for (int k = 0; k < ncol; ++k)
-      if (c[k] > 0) pos.push_back(k);
-    const double chi2 = (w.b - w.A * c).squaredNorm();
-    r.dof = std::max(1, n - static_cast<int>(pos.size()));
-    r.chi2 = chi2;
-    r.chi2_dof = chi2 / r.dof;
-    r.chi2_p = chi2UpperTail(chi2, r.dof);
-    r.uncertainty_inflation = (r.chi2_p < kMisfitP && r.chi2_dof > 1) ? r.chi2_dof : 1.0;
-    for (int col : ieee_cols) {
-      const int t = P.term[static_cast<size_t>(col)];
-      std::vector<int> cols;
-      const bool in = c[col] > 0;
-      for (int k : pos)
-        if (k != col) cols.push_back(k);
-      if (!in) cols.push_back(col);
-      Eigen::VectorXd tmp;
-      const double other = solveNnls(w, cols, &tmp);
-      r.evidence[static_cast<size_t>(t)] = in ? other - chi2 : chi2 - other;
-    }
-  };
-  statistics();
+  for (int col : ieee_cols) {
+    const int t = P.term[static_cast<size_t>(col)];
+    std::vector<int> cols;
+    const bool in = c[col] > 0;
+    for (int k : pos)
+      if (k != col) cols.push_back(k);
+    if (!in) cols.push_back(col);
+    Eigen::VectorXd tmp;
+    const double other = solveNnls(w, cols, &tmp);
+    r.evidence[static_cast<size_t>(t)] = in ? other - chi2 : chi2 - other;
+  }
 
   // Intervals and values by selective inference (selective.hpp). Each term's estimate x (its least-squares value
   // when selected; when not, its unconstrained value with the term added) is treated as normal with a variance
@@ -337,18 +333,16 @@ FitResult fitNoiseModelGls(const DeviationCurve& curve, const FitOptions& option
   };
   struct TermInference {
     bool corrected_out = false;
-    double x = 0, sd0 = 0;
+    double sd0 = 0;
     SelectionEvent event;
     SelectiveEstimate est;
   };
   std::vector<TermInference> inf(static_cast<size_t>(ncol));
-  const std::vector<int> pos_selected = pos;  // the subset search's choice, before any drop
   auto infer = [&](int col, const std::vector<int>& cols, size_t k, double x, double sd0) {
     TermInference ti;
-    ti.x = x;
     ti.sd0 = sd0;
     const int t = P.term[static_cast<size_t>(col)];
-    const bool selected = std::find(pos_selected.begin(), pos_selected.end(), col) != pos_selected.end();
+    const bool selected = c[col] > 0;
     ti.event.selected = selected;
     if (t >= kNumTerms) {  // extra terms are always in: no selection to condition on
       ti.event.threshold = selected ? -std::numeric_limits<double>::infinity() : std::numeric_limits<double>::infinity();
