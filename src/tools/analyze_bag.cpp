@@ -3,6 +3,9 @@
 #ifdef __GLIBC__
 #include <malloc.h>
 #endif
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/socket.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -243,28 +246,104 @@ std::string plotScript() {
   return "";
 }
 
-/// Runs plot_allan.py on the output folder; any failure is a one-line warning (the plot is optional).
-void runPlot(const std::string& dir, bool quiet) {
-  const std::string script = plotScript();
-  auto warn = [&](const std::string& why) {
-    if (!quiet) std::cerr << "analyze_bag: warning: no plot: " << why << "\n";
-  };
-  if (script.empty()) return warn("plot_allan.py not found (set GYRO_ALLAN_PLOT_SCRIPT)");
-  const char* py = access("/usr/bin/python3", X_OK) == 0 ? "/usr/bin/python3" : "python3";
-  const std::string cmd = std::string(py) + " '" + script + "' '" + dir + "' 2>&1";
-  FILE* f = popen(cmd.c_str(), "r");
-  if (!f) return warn("cannot start python3");
-  std::string out, last;
-  char buf[512];
-  while (std::fgets(buf, sizeof buf, f)) {
-    std::string l(buf);
-    while (!l.empty() && (l.back() == '\n' || l.back() == '\r')) l.pop_back();
-    if (!l.empty()) last = l;
+/// plot_allan.py started beside the analysis: `plot_allan.py DIR --wait --rows R` imports matplotlib and builds an
+/// empty figure with its ticks (about half of the plot's time) while the analysis runs, then waits for one line on
+/// its stdin. finish() sends "go" once the outputs are written and waits for the drawing; any failure is a one-line
+/// warning (the plot is optional). Destroyed without finish() (the analysis failed), it closes the script's stdin
+/// and stops it, so no plot process outlives analyze_bag.
+class PlotProcess {
+ public:
+  PlotProcess(const std::string& dir, int rows, bool quiet) : quiet_(quiet) {
+    const std::string script = plotScript();
+    if (script.empty()) {
+      why_ = "plot_allan.py not found (set GYRO_ALLAN_PLOT_SCRIPT)";
+      return;
+    }
+    int in[2], out[2];
+    if (socketpair(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0, in) != 0) {
+      why_ = "cannot start python3";
+      return;
+    }
+    if (pipe2(out, O_CLOEXEC) != 0) {
+      close(in[0]), close(in[1]);
+      why_ = "cannot start python3";
+      return;
+    }
+    const std::string rows_s = std::to_string(rows);
+    std::vector<const char*> argv = {"python3", script.c_str(), dir.c_str(), "--wait", "--rows", rows_s.c_str(),
+                                     nullptr};
+    const pid_t pid = fork();
+    if (pid == 0) {  // child: only async-signal-safe calls until exec
+      dup2(in[1], 0);
+      dup2(out[1], 1);
+      dup2(out[1], 2);
+      execv("/usr/bin/python3", const_cast<char* const*>(argv.data()));
+      execvp("python3", const_cast<char* const*>(argv.data()));
+      const char msg[] = "cannot start python3\n";
+      (void)!write(2, msg, sizeof msg - 1);
+      _exit(127);
+    }
+    close(in[1]);
+    close(out[1]);
+    if (pid < 0) {
+      close(in[0]), close(out[0]);
+      why_ = "cannot start python3";
+      return;
+    }
+    pid_ = pid, in_ = in[0], out_ = out[0];
   }
-  const int status = pclose(f);
-  if (status == -1 || !WIFEXITED(status) || WEXITSTATUS(status) != 0)
-    warn(last.empty() ? "plot_allan.py failed" : last);
-}
+  PlotProcess(const PlotProcess&) = delete;
+  PlotProcess& operator=(const PlotProcess&) = delete;
+  ~PlotProcess() {
+    if (pid_ <= 0) return;
+    close(in_);  // end of input: the script exits without drawing
+    kill(pid_, SIGTERM);
+    close(out_);
+    waitpid(pid_, nullptr, 0);
+  }
+
+  /// Draws the outputs now in the folder and waits for the script.
+  void finish() {
+    if (pid_ <= 0) return warn(why_);
+    const char go[] = "go\n";
+    (void)send(in_, go, sizeof go - 1, MSG_NOSIGNAL);  // fails only if the script already exited (its message follows)
+    close(in_);
+    std::string last, line;
+    char buf[512];
+    ssize_t n;
+    while ((n = read(out_, buf, sizeof buf)) != 0) {
+      if (n < 0) {
+        if (errno == EINTR) continue;
+        break;
+      }
+      for (ssize_t i = 0; i < n; ++i) {
+        if (buf[i] == '\n' || buf[i] == '\r') {
+          if (!line.empty()) last = line;
+          line.clear();
+        } else {
+          line += buf[i];
+        }
+      }
+    }
+    if (!line.empty()) last = line;
+    close(out_);
+    int status = 0;
+    pid_t w;
+    while ((w = waitpid(pid_, &status, 0)) < 0 && errno == EINTR) {
+    }
+    pid_ = -1;
+    if (w < 0 || !WIFEXITED(status) || WEXITSTATUS(status) != 0) warn(last.empty() ? "plot_allan.py failed" : last);
+  }
+
+ private:
+  void warn(const std::string& why) const {
+    if (!quiet_) std::cerr << "analyze_bag: warning: no plot: " << why << "\n";
+  }
+  bool quiet_;
+  std::string why_;
+  pid_t pid_ = -1;
+  int in_ = -1, out_ = -1;
+};
 
 /// The input's state for the printed summary: timeline and at-rest check, one line each (spikes follow the table).
 std::string inputSummary(const ReportMeta& meta) {
@@ -453,6 +532,11 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
   opt.wavelet_split = args.wavelet_split;
   opt.model_check = args.model_check;
   opt.remove_spikes = !args.keep_spikes;
+  // The plot script starts now, beside the analysis (see PlotProcess); rows: gyro, and accelerometer unless --no-accel.
+  const char* no_plot = std::getenv("GYRO_ALLAN_NO_PLOT");
+  std::unique_ptr<PlotProcess> plot;
+  if (args.plot && !(no_plot && std::string(no_plot) == "1"))
+    plot = std::make_unique<PlotProcess>(args.output, args.accel ? 2 : 1, args.quiet);
 
   ReportMeta meta;
   meta.tau_grid = tauGridName(opt.deviation.grid);
@@ -791,8 +875,7 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
     std::printf("wrote %s/report.%s, %s/allan.csv and %s/imu.yaml (Kalibr)\n", args.output.c_str(),
                 args.format.c_str(), args.output.c_str(), args.output.c_str());
   }
-  const char* no_plot = std::getenv("GYRO_ALLAN_NO_PLOT");
-  if (args.plot && !(no_plot && std::string(no_plot) == "1")) runPlot(args.output, args.quiet);
+  if (plot) plot->finish();
   if (gyro_out) *gyro_out = results;
   if (accel_out) *accel_out = accel_results;
   return kExitOk;
