@@ -22,6 +22,13 @@ inline std::string slurp(const std::string& path) {
   return ss.str();
 }
 
+/// Number of lines (newline characters) in a tool's output: an error must be one line.
+inline int countLines(const std::string& s) {
+  int n = 0;
+  for (char c : s) n += c == '\n';
+  return n;
+}
+
 /// Runs a shell command line, capturing its output in files under out_dir.
 inline ToolRun runTool(const std::string& args, const std::string& out_dir) {
   const std::string o = out_dir + "/stdout.txt", e = out_dir + "/stderr.txt";

@@ -24,11 +24,7 @@ const std::string kOut = std::string(GYRO_ALLAN_TEST_OUT) + "/cli";
 using gyro_allan_test::ToolRun;
 ToolRun run(const std::string& args) { return gyro_allan_test::runTool(args, kOut); }
 
-int lines(const std::string& s) {
-  int n = 0;
-  for (char c : s) n += c == '\n';
-  return n;
-}
+using gyro_allan_test::countLines;
 
 class Cli : public ::testing::Test {
  protected:
@@ -133,7 +129,7 @@ TEST_F(Cli, HelpWorks) {
 // Each unusable input: non-zero exit and exactly one line on stderr naming the problem.
 void expectOneLineError(const ToolRun& r, int code, const std::string& needle) {
   EXPECT_EQ(r.code, code) << r.err;
-  EXPECT_EQ(lines(r.err), 1) << r.err;
+  EXPECT_EQ(countLines(r.err), 1) << r.err;
   EXPECT_NE(r.err.find(needle), std::string::npos) << r.err;
 }
 
@@ -168,7 +164,7 @@ TEST_F(Cli, TruncatedBag) {
   ASSERT_EQ(std::system(("head -c 300000 " + kOut + "/sim.bag > " + kOut + "/trunc.bag").c_str()), 0);
   const ToolRun r = run(kTools + "/analyze_bag " + kOut + "/trunc.bag --output " + kOut + "/e4");
   EXPECT_EQ(r.code, 2) << r.err;
-  EXPECT_EQ(lines(r.err), 1) << r.err;
+  EXPECT_EQ(countLines(r.err), 1) << r.err;
   EXPECT_NE(r.err.find("trunc.bag"), std::string::npos) << r.err;
 }
 
@@ -193,7 +189,7 @@ TEST_F(Cli, CsvProblems) {
   }
   const ToolRun r = run(kTools + "/analyze_bag --csv " + kOut + "/short.csv --rate 100 --output " + kOut + "/e6");
   EXPECT_EQ(r.code, 3) << r.err;
-  EXPECT_EQ(lines(r.err), 1) << r.err;
+  EXPECT_EQ(countLines(r.err), 1) << r.err;
   expectOneLineError(run(kTools + "/analyze_bag --csv " + kOut + "/short.csv --output " + kOut + "/e6"), 1, "--rate");
 }
 

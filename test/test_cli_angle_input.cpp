@@ -24,15 +24,11 @@ constexpr double kQ = 1.6968e-6, kN = 2.909e-7;
 using gyro_allan_test::ToolRun;
 ToolRun run(const std::string& args) { return gyro_allan_test::runTool(args, kOut); }
 
-int lines(const std::string& s) {
-  int n = 0;
-  for (char c : s) n += c == '\n';
-  return n;
-}
+using gyro_allan_test::countLines;
 
 void expectOneLineError(const ToolRun& r, int code, const std::string& needle) {
   EXPECT_EQ(r.code, code) << r.err;
-  EXPECT_EQ(lines(r.err), 1) << r.err;
+  EXPECT_EQ(countLines(r.err), 1) << r.err;
   EXPECT_NE(r.err.find(needle), std::string::npos) << r.err;
   EXPECT_EQ(r.err.rfind("analyze_bag: error: ", 0), 0u) << r.err;
 }

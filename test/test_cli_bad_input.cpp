@@ -31,17 +31,13 @@ using gyro_allan_test::slurp;
 using gyro_allan_test::ToolRun;
 ToolRun run(const std::string& args) { return gyro_allan_test::runTool(args, kOut); }
 
-int lines(const std::string& s) {
-  int n = 0;
-  for (char c : s) n += c == '\n';
-  return n;
-}
+using gyro_allan_test::countLines;
 
 bool exists(const std::string& p) { return std::ifstream(p).good(); }
 
 void expectOneLineError(const ToolRun& r, int code, const std::string& needle) {
   EXPECT_EQ(r.code, code) << r.err;
-  EXPECT_EQ(lines(r.err), 1) << r.err;
+  EXPECT_EQ(countLines(r.err), 1) << r.err;
   EXPECT_NE(r.err.find(needle), std::string::npos) << r.err;
   EXPECT_EQ(r.err.rfind("analyze_bag: error: ", 0), 0u) << r.err;
 }
@@ -316,7 +312,7 @@ TEST_F(BadInput, CorruptBagsGiveOneLine) {
   EXPECT_NE(r1.code, 0);
   EXPECT_NE(r1.code, -1) << "crashed";
   if (r1.code != 0) {
-    EXPECT_EQ(lines(r1.err), 1) << r1.err;
+    EXPECT_EQ(countLines(r1.err), 1) << r1.err;
   }
   // Not a bag at all.
   std::ofstream(kOut + "/text.bag") << "this is not a rosbag\n";
@@ -344,7 +340,7 @@ TEST_F(BadInput, WrongMessageTypeOnTheImuTopic) {
   }
   const ToolRun r = run(kTools + "/analyze_bag " + kOut + "/mixed.bag --output " + kOut + "/w1");
   EXPECT_EQ(r.code, 2) << r.err;
-  EXPECT_EQ(lines(r.err), 1) << r.err;
+  EXPECT_EQ(countLines(r.err), 1) << r.err;
   EXPECT_NE(r.err.find("/imu"), std::string::npos) << r.err;
 }
 
