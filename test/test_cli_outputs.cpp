@@ -106,6 +106,13 @@ TEST_F(Outputs, KalibrValuesAreTheReportsNAndKInSi) {
   EXPECT_NEAR(n / 1e-3, 1.0, 0.03);
   EXPECT_GT(k, 1e-5);
   EXPECT_LT(k, 1e-4);
+  // The GLS fit's selection record: evidence per term and the terms dropped by the selection correction (a list).
+  for (const char* ax : {"x", "y", "z"}) {
+    const YAML::Node fit = rep["axes"][ax]["methods"]["joint_fit"]["fit"];
+    ASSERT_TRUE(fit["evidence_chi2"]) << ax;
+    ASSERT_TRUE(fit["dropped_by_selection_correction"]) << ax;
+    EXPECT_TRUE(fit["dropped_by_selection_correction"].IsSequence()) << ax;
+  }
   // Accelerometer: the report's section and Kalibr's accelerometer_noise_density = VRW, declared 2e-3 (3 %).
   ASSERT_TRUE(rep["accelerometer"]["axes"]["z"]) << "no accelerometer section";
   const YAML::Node acc = rep["accelerometer"]["axes"];

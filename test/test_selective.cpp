@@ -126,3 +126,35 @@ TEST(Selective, DroppedDrawsUpperBoundsCover) {
     }
   }
 }
+
+// A selected estimate right at its threshold carries no evidence beyond the selection itself: its corrected value is
+// 0 (the GLS fit then drops the term, FitResult::dropped_by_correction). Well above the threshold the correction
+// vanishes.
+TEST(Selective, AtTheThresholdTheCorrectedValueIsZero) {
+  VarianceModel v;
+  v.v0 = 1.0;
+  EXPECT_EQ(selectiveEstimate(2.0, v, SelectionEvent{true, 2.0}).median, 0.0);
+  EXPECT_EQ(selectiveEstimate(2.05, v, SelectionEvent{true, 2.0}).median, 0.0);
+  const double far = selectiveEstimate(8.0, v, SelectionEvent{true, 2.0}).median;
+  EXPECT_NEAR(far, 8.0, 1e-3);
+  const double near = selectiveEstimate(3.0, v, SelectionEvent{true, 2.0}).median;
+  EXPECT_GT(near, 0.0);
+  EXPECT_LT(near, 3.0);  // shrunk: the winner's-curse correction
+}
+
+// A dropped term whose scatter grows like the term itself (relative sd 0.5): without a cap the conditional bound has
+// no finite end (the pivot turns back towards 1); with the variance held beyond the threshold it is finite and above
+// the threshold, and the 95 % bound is above the 68 % one.
+TEST(Selective, DroppedBoundWithGrowingVarianceIsFiniteWhenCapped) {
+  VarianceModel v;
+  v.v0 = 1.0;
+  v.v2 = 0.25;
+  const SelectionEvent drop{false, 2.0};
+  EXPECT_GT(selectivePivot(0.0, 1e6, v, drop), 0.5);  // uncapped: a huge value is not excluded
+  v.cap_mu = 2.0;
+  const SelectiveEstimate e = selectiveEstimate(0.0, v, drop);
+  EXPECT_GT(e.hi68, 0.0);
+  EXPECT_LT(e.hi68, 2.0 + 10.0 * std::sqrt(v.at(2.0)));
+  EXPECT_GT(e.hi95, e.hi68);
+  EXPECT_LT(e.hi95, 2.0 + 10.0 * std::sqrt(v.at(2.0)));
+}
