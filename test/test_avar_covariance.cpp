@@ -79,6 +79,40 @@ TEST(AvarCovariance, WhiteNoiseVarianceAtTauZero) {
   EXPECT_NEAR(avarCovariance(basis, {{0, n2, 0, 0, 0}}, 0.0)(0, 0) / expect, 1.0, 2e-4);
 }
 
+namespace {
+
+// Sample covariance of the oadev at averaging factors m over `reps` simulated records (seeds seed0, seed0 + 1, ...),
+// and the term counts of those points.
+struct MonteCarloAvar {
+  Eigen::MatrixXd cov;
+  std::vector<int64_t> terms;
+};
+MonteCarloAvar monteCarloAvar(const AxisNoise& noise, double rate, int64_t n, int reps, uint64_t seed0,
+                              const std::vector<int64_t>& m) {
+  const int np = static_cast<int>(m.size());
+  std::vector<Eigen::VectorXd> draws;
+  MonteCarloAvar r;
+  DeviationOptions opt;
+  opt.compute_edf = false;
+  for (int k = 0; k < reps; ++k) {
+    const std::vector<double> y = simulateAxis(noise, rate, n, seed0 + static_cast<uint64_t>(k));
+    const DeviationCurve c = computeDeviationAt("oadev", y, InputKind::Rate, 1.0 / rate, m, opt);
+    EXPECT_EQ(static_cast<int>(c.points.size()), np);
+    Eigen::VectorXd v(np);
+    for (int i = 0; i < np; ++i) v[i] = c.points[static_cast<size_t>(i)].var;
+    draws.push_back(v);
+    if (r.terms.empty())
+      for (const auto& p : c.points) r.terms.push_back(p.n_terms);
+  }
+  Eigen::VectorXd mean = Eigen::VectorXd::Zero(np);
+  for (const auto& d : draws) mean += d / reps;
+  r.cov = Eigen::MatrixXd::Zero(np, np);
+  for (const auto& d : draws) r.cov += (d - mean) * (d - mean).transpose() / (reps - 1);
+  return r;
+}
+
+}  // namespace
+
 TEST(AvarCovariance, MatchesMonteCarloOfSimulatedGyros) {
   // 300 simulated records of 8192 samples with N, K, B and dithered Q; the sample covariance of their AVARs at octave
   // taus must match the analytic one: variances within 25 % (the Monte-Carlo standard error of a variance from 300
@@ -94,24 +128,9 @@ TEST(AvarCovariance, MatchesMonteCarloOfSimulatedGyros) {
   std::vector<int64_t> m;
   for (int64_t k = 1; k <= n / 8; k *= 2) m.push_back(k);
   const int np = static_cast<int>(m.size());
-  std::vector<Eigen::VectorXd> draws;
-  std::vector<int64_t> terms;
-  DeviationOptions opt;
-  opt.compute_edf = false;
-  for (int r = 0; r < reps; ++r) {
-    const std::vector<double> y = simulateAxis(noise, rate, n, 5000 + static_cast<uint64_t>(r));
-    const DeviationCurve c = computeDeviationAt("oadev", y, InputKind::Rate, tau0, m, opt);
-    ASSERT_EQ(static_cast<int>(c.points.size()), np);
-    Eigen::VectorXd v(np);
-    for (int i = 0; i < np; ++i) v[i] = c.points[static_cast<size_t>(i)].var;
-    draws.push_back(v);
-    if (terms.empty())
-      for (const auto& p : c.points) terms.push_back(p.n_terms);
-  }
-  Eigen::VectorXd mean = Eigen::VectorXd::Zero(np);
-  for (const auto& d : draws) mean += d / reps;
-  Eigen::MatrixXd mc = Eigen::MatrixXd::Zero(np, np);
-  for (const auto& d : draws) mc += (d - mean) * (d - mean).transpose() / (reps - 1);
+  const MonteCarloAvar mca = monteCarloAvar(noise, rate, n, reps, 5000, m);
+  const Eigen::MatrixXd& mc = mca.cov;
+  const std::vector<int64_t>& terms = mca.terms;
   const AvarCovarianceBasis basis = avarCovarianceBasis(m, terms, tau0);
   const std::array<double, 5> s{{noise.quantization * noise.quantization, noise.angle_random_walk * noise.angle_random_walk,
                                  noise.bias_instability * noise.bias_instability,
@@ -138,27 +157,12 @@ TEST(AvarCovariance, UniformQuantizationKurtosis) {
   noise.quantization = 1e-5;
   noise.angle_random_walk = 1e-5;
   const std::vector<int64_t> m{1, 2};
-  std::vector<double> v1, v2;
-  std::vector<int64_t> terms;
-  DeviationOptions opt;
-  opt.compute_edf = false;
-  for (int r = 0; r < reps; ++r) {
-    const std::vector<double> y = simulateAxis(noise, rate, n, 9000 + static_cast<uint64_t>(r));
-    const DeviationCurve c = computeDeviationAt("oadev", y, InputKind::Rate, tau0, m, opt);
-    v1.push_back(c.points[0].var);
-    v2.push_back(c.points[1].var);
-    if (terms.empty()) terms = {c.points[0].n_terms, c.points[1].n_terms};
-  }
-  auto var = [](const std::vector<double>& v) {
-    double mean = 0, s = 0;
-    for (double x : v) mean += x / v.size();
-    for (double x : v) s += (x - mean) * (x - mean) / (v.size() - 1);
-    return s;
-  };
+  const MonteCarloAvar mca = monteCarloAvar(noise, rate, n, reps, 9000, m);
+  const std::vector<int64_t>& terms = mca.terms;
   const AvarCovarianceBasis basis = avarCovarianceBasis(m, terms, tau0);
   const std::array<double, 5> s{{1e-10, 1e-10, 0, 0, 0}};
   const Eigen::MatrixXd uni = avarCovariance(basis, s), gauss = avarCovariance(basis, s, 0.0);
-  const double mc[2] = {var(v1), var(v2)};
+  const double mc[2] = {mca.cov(0, 0), mca.cov(1, 1)};
   for (int i = 0; i < 2; ++i) {
     EXPECT_NEAR(mc[i] / uni(i, i), 1.0, 0.2) << "m=" << m[static_cast<size_t>(i)];
     EXPECT_LT(std::fabs(mc[i] / uni(i, i) - 1.0), std::fabs(mc[i] / gauss(i, i) - 1.0)) << "m=" << m[static_cast<size_t>(i)];
