@@ -2,6 +2,8 @@
 // soundness on 1e7 samples, noise identification, EDF coverage, chi-squared quantiles and input validation.
 #include <gtest/gtest.h>
 
+#include "series_util.hpp"
+
 #include <cmath>
 #include <random>
 #include <stdexcept>
@@ -21,16 +23,6 @@ std::vector<double> whiteNoise(size_t n, double sigma, uint64_t seed, double mea
   std::vector<double> v(n);
   for (auto& x : v) x = mean + nd(rng);
   return v;
-}
-
-std::vector<double> cumsum(const std::vector<double>& y, double tau0) {
-  std::vector<double> x(y.size() + 1, 0.0);
-  long double acc = 0;
-  for (size_t i = 0; i < y.size(); ++i) {
-    acc += static_cast<long double>(y[i]) * tau0;
-    x[i + 1] = static_cast<double>(acc);
-  }
-  return x;
 }
 
 /// Exact modified Allan variance of unit white rate noise (tau0 = 1): the mvar term is a weighted sum of the
@@ -127,7 +119,7 @@ TEST(AllanPhase, RateToAngleRemovesMean) {
 TEST(AllanPhase, RateAndAngleInputsAgree) {
   const double tau0 = 0.01;
   const auto y = whiteNoise(5000, 0.3, 11, 0.7);
-  const auto x = cumsum(y, tau0);  // no mean removal: a linear phase trend must not matter
+  const auto x = gyro_allan_test::accumulatedAngle(y, tau0);  // no mean removal: a linear phase trend must not matter
   DeviationOptions opt;
   opt.grid.kind = TauGridKind::Octave;
   for (const auto& name : deviationNames()) {

@@ -2,6 +2,8 @@
 // the wavelet split and the model check run on them as for rate input.
 #include <gtest/gtest.h>
 
+#include "series_util.hpp"
+
 #include <cmath>
 #include <vector>
 
@@ -12,17 +14,8 @@
 namespace {
 
 using namespace gyro_allan;
+using gyro_allan_test::accumulatedAngle;
 
-/// Accumulated angle of rate samples: theta[0] = 0, theta[k+1] = theta[k] + rate[k] tau0 (n + 1 points).
-std::vector<double> accumulate(const std::vector<double>& rate, double tau0) {
-  std::vector<double> theta(rate.size() + 1, 0.0);
-  long double acc = 0;
-  for (size_t k = 0; k < rate.size(); ++k) {
-    acc += static_cast<long double>(rate[k]) * tau0;
-    theta[k + 1] = static_cast<double>(acc);
-  }
-  return theta;
-}
 
 void expectSameCurve(const DeviationCurve& a, const DeviationCurve& b, double rel) {
   ASSERT_EQ(a.points.size(), b.points.size());
@@ -54,7 +47,7 @@ TEST(AngleInput, SameAllanVarianceAsTheRate) {
   noise.bias = 3e-3;
   const double hz = 100, tau0 = 1 / hz;
   const std::vector<double> rate = simulateAxis(noise, hz, 180000, 7);
-  const std::vector<double> theta = accumulate(rate, tau0);
+  const std::vector<double> theta = accumulatedAngle(rate, tau0);
   std::vector<double> inc(rate.size());
   for (size_t k = 0; k < rate.size(); ++k) inc[k] = rate[k] * tau0;
 
@@ -108,7 +101,7 @@ TEST(AngleInput, UnditheredRlgSplitFromAngle) {
   noise.input_rate = 4.848e-5;
   const double hz = 400, tau0 = 1 / hz;
   const std::vector<double> rate = simulateAxis(noise, hz, 240000, 3);
-  const std::vector<double> theta = accumulate(rate, tau0);
+  const std::vector<double> theta = accumulatedAngle(rate, tau0);
   AnalysisOptions ro;
   ro.remove_spikes = false;
   const AxisAnalysis r = analyzeAxis("x", {rate}, tau0, ro);
@@ -140,7 +133,7 @@ TEST(AngleInput, SegmentsEachLoseOnePoint) {
   ao.input = InputKind::Angle;
   ao.wavelet_split = false;
   ao.model_check = false;
-  const AxisAnalysis a = analyzeAxis("x", {accumulate(r1, tau0), {5.0}, accumulate(r2, tau0)}, tau0, ao);
+  const AxisAnalysis a = analyzeAxis("x", {accumulatedAngle(r1, tau0), {5.0}, accumulatedAngle(r2, tau0)}, tau0, ao);
   EXPECT_EQ(a.samples, 50000);
   EXPECT_EQ(a.segments, 2);
   AnalysisOptions ro;
