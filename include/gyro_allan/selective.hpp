@@ -30,13 +30,24 @@ double selectivePivot(double x, double mu, const VarianceModel& v, const Selecti
 double selectiveSolve(double x, double p, const VarianceModel& v, const SelectionEvent& e);
 
 /// Conditional intervals (each holds the truth with its stated probability among the records on which the same
-/// selection happened) and the conditional median-unbiased estimate. For a dropped term x is taken as max(x, 0): the
-/// bound never excludes values the record cannot tell from zero (power-constrained), at a slight over-coverage, and
-/// the interval is one-sided, [0, hi], at the same confidence.
+/// selection happened) and the conditional median-unbiased estimate. A selected term gets the equal-tailed interval
+/// of the pivot. A dropped term's 68 % interval is the unified (Feldman-Cousins) interval of its truncated
+/// distribution (droppedIntervalFC): [0, hi] when the estimate is low, [lo > 0, hi] when it came out high but still
+/// below the threshold; never empty, and at its stated coverage for every true value >= 0, also far below what the
+/// record can detect (a plain one-sided bound then covers ~100 %). Its 95 % interval is the one-sided,
+/// power-constrained [0, hi] (x counted as max(x, 0)): conservative where the estimate's tails are heavier than normal.
 struct SelectiveEstimate {
   double median = 0;  // pivot = 1/2
   double lo68 = 0, hi68 = 0, lo95 = 0, hi95 = 0;
 };
 SelectiveEstimate selectiveEstimate(double x, const VarianceModel& v, const SelectionEvent& e);
+
+/// Interval [lo, hi] for mu >= 0 from X ~ N(mu, v(mu)) truncated to X < threshold (+inf: no truncation) by a Neyman
+/// construction with likelihood-ratio ordering (Feldman & Cousins 1998, "Unified approach to the classical
+/// statistical analysis of small signals"): for each mu on a grid the acceptance region holds the values of X whose
+/// likelihood ratio f(X | mu) / f(X | best mu >= 0) is highest, up to probability `confidence`; the interval is the
+/// set of mu whose region holds x. The grid's resolution is ~1/150 of the range searched.
+void droppedIntervalFC(double x, const VarianceModel& v, double threshold, const double confidence[2], double lo[2],
+                       double hi[2]);
 
 }  // namespace gyro_allan

@@ -410,9 +410,9 @@ FitResult fitNoiseModelGls(const DeviationCurve& curve, const FitOptions& option
     co.value = co.supported ? std::sqrt(c[col]) : 0.0;
     co.hi68 = std::sqrt(ti.est.hi68);
     co.hi95 = std::sqrt(ti.est.hi95);
+    co.lo68 = std::sqrt(ti.est.lo68);  // a dropped term's unified interval may exclude 0 (selective.hpp)
+    co.lo95 = std::sqrt(ti.est.lo95);
     if (co.supported) {
-      co.lo68 = std::sqrt(ti.est.lo68);
-      co.lo95 = std::sqrt(ti.est.lo95);
       co.sigma = ti.sd0 / (2.0 * co.value);  // delta method at the least-squares value (the model check's gates)
     } else {
       co.sigma = co.hi68;  // a 1-sigma upper bound
@@ -426,7 +426,6 @@ FitResult fitNoiseModelGls(const DeviationCurve& curve, const FitOptions& option
         r.dropped_by_correction[static_cast<size_t>(t)] = true;
         cc.supported = false;
         cc.value = 0.0;
-        cc.lo68 = cc.lo95 = 0.0;
         cc.sigma = cc.hi68;
       } else if (co.supported) {
         cc.value = std::sqrt(ti.est.median);

@@ -36,7 +36,8 @@
 // Per run (AnalysisOptions defaults except what the command line sets; one segment = the whole record) and term t
 // with truth T, the reported Coefficient c = AxisAnalysis::coefficients[t]:
 //   T > 0, c supported:    covered68 = lo68 <= T <= hi68, covered95 = lo95 <= T <= hi95      ("sup" columns)
-//   T > 0, c unsupported:  covered68 = T <= hi68, covered95 = T <= hi95 (one-sided bounds)   ("ub" columns)
+//   T > 0, c unsupported:  the same, with its interval (usually [0, hi]; a dropped term's unified interval may
+//                          start above 0: selective.hpp)                                       ("ub" columns)
 //   cov68 / cov95: over both kinds. bias: median of value/T - 1 over supported terms with T > 0.
 //   phantom: fraction of runs with T = 0 where the term is supported; detect: fraction with T > 0 where it is.
 //   noint: cases with T > 0 whose interval fields are empty (hi95 = 0 although value or sigma is not); they count
@@ -174,8 +175,8 @@ struct Cell {
         s95 += c95;
         rel.push_back(c.value / truth - 1.0);
       } else {
-        c68 = truth <= c.hi68;
-        c95 = truth <= c.hi95;
+        c68 = c.lo68 <= truth && truth <= c.hi68;  // lo is 0 unless the unified interval excludes 0
+        c95 = c.lo95 <= truth && truth <= c.hi95;
         ++nu;
         u68 += c68;
         u95 += c95;
@@ -438,7 +439,7 @@ int main(int argc, char** argv) {
 
     // Summary: per class run (class@duration), per term, then all classes.
     std::array<Cell, kNumTerms> total;
-    std::printf("# coverage of the truth by [lo68,hi68] / [lo95,hi95] (unsupported terms: by the one-sided bounds), "
+    std::printf("# coverage of the truth by [lo68,hi68] / [lo95,hi95] (unsupported terms too: usually [0, hi]), "
                 "each ± its binomial standard error; bias = median(value/truth - 1) over supported terms\n");
     std::printf("# cov = all cases with truth > 0 (n); sup = supported (ns); ub = unsupported, upper bound (nu); "
                 "noint = interval fields empty; phantom = supported with truth 0 (of n0); detect = ns/n\n");
