@@ -552,8 +552,25 @@ ResidualAnalysis analyzeResidual(const DeviationCurve& curve, const FitResult& f
   return ra;
 }
 
-ModelCheck checkModel(const std::vector<double>& rate, double tau0, const DeviationCurve& curve, const FitResult& fit,
-                      const ModelCheckOptions& opts, const std::vector<double>* temperature) {
+namespace {
+
+// ---- checkModel, stage by stage -------------------------------------------------------------------------------
+
+// What every stage of checkModel reads: the record, its curve, the options and the record's size.
+struct CheckInput {
+  const std::vector<double>& rate;
+  double tau0;
+  const DeviationCurve& curve;
+  const ModelCheckOptions& opts;
+  const std::vector<double>* temperature;
+  int64_t n;  // samples
+  double T;   // record length, s
+  double fs;  // sample rate, Hz
+};
+
+// Rejects inputs checkModel cannot work on (std::invalid_argument).
+void validateInputs(const std::vector<double>& rate, double tau0, const DeviationCurve& curve, const FitResult& fit,
+                    const std::vector<double>* temperature) {
   if (!(tau0 > 0) || !std::isfinite(tau0)) throw std::invalid_argument("checkModel: tau0 must be positive");
   if (rate.size() < 64) throw std::invalid_argument("checkModel: need at least 64 rate samples");
   for (double v : rate)
@@ -563,697 +580,797 @@ ModelCheck checkModel(const std::vector<double>& rate, double tau0, const Deviat
     throw std::invalid_argument("checkModel: fit does not belong to the curve (point counts differ)");
   if (temperature && temperature->size() != rate.size())
     throw std::invalid_argument("checkModel: temperature series length differs from the rate series");
+}
 
-  ModelCheck mc;
-  mc.fit_before = fit;
-  for (const auto& p : curve.points) {
-    mc.tau.push_back(p.tau);
-    mc.measured_var.push_back(p.var);
-  }
-  if (!fit.ok) {
-    mc.message = "base fit failed: " + fit.message;
-    mc.fit_after = fit;
-    mc.model_var_before = mc.model_var_after = fit.model_var;
-    return mc;
-  }
-  // The plain IEEE model again, with EDF from its own noise terms (not from the data's noise identification), so
-  // that it is weighted exactly like the models with effects it is compared with.
+// The answer when no model could be checked: the given fit before and after, and why.
+ModelCheck unchecked(ModelCheck mc, const FitResult& fit, const std::string& message) {
+  mc.message = message;
+  mc.fit_after = fit;
+  mc.model_var_before = mc.model_var_after = fit.model_var;
+  return mc;
+}
+
+// The plain IEEE model again, with EDF from its own noise terms (not from the data's noise identification), so
+// that it is weighted exactly like the models with effects it is compared with.
+Model refitBase(const CheckInput& in, const FitResult& fit) {
   Model given;
   given.fit = fit;
-  given.weighted = weightFor(curve, fit, {}, {});
-  const Model base = fitModel(curve, given, opts.fit, {}, {}, 0, false);
-  if (!base.ok) {
-    mc.message = "base refit failed: " + base.fit.message;
-    mc.fit_after = fit;
-    mc.model_var_before = mc.model_var_after = fit.model_var;
-    return mc;
-  }
-  std::vector<bool> rms_mask(curve.points.size(), false);
-  for (size_t i = 0; i < curve.points.size(); ++i)
-    rms_mask[i] = base.weighted.points[i].edf >= opts.fit.rms_min_edf && curve.points[i].var > 0;
-  mc.fit_before = base.fit;
-  mc.model_var_before = base.fit.model_var;
-  mc.before.rms_log10 = rmsLog10(curve, base.fit.model_var, rms_mask);
-  mc.before.chi2_dof = base.fit.chi2_dof;
-  mc.before.bic = base.bic;
-  mc.before.n_params = countParams(base.fit);
-  mc.residual_before = analyzeResidual(base.weighted, base.fit, {}, opts.structured_alpha);
+  given.weighted = weightFor(in.curve, fit, {}, {});
+  return fitModel(in.curve, given, in.opts.fit, {}, {}, 0, false);
+}
 
-  const int64_t n = static_cast<int64_t>(rate.size());
-  const double T = n * tau0;
-  const double fs = 1.0 / tau0;
-  std::vector<Candidate> cands;
+// Points the RMS log10 error is taken over, the same for every model compared: enough EDF under the base model.
+std::vector<bool> rmsMask(const CheckInput& in, const Model& base) {
+  std::vector<bool> rms_mask(in.curve.points.size(), false);
+  for (size_t i = 0; i < in.curve.points.size(); ++i)
+    rms_mask[i] = base.weighted.points[i].edf >= in.opts.fit.rms_min_edf && in.curve.points[i].var > 0;
+  return rms_mask;
+}
 
-  // ---- Sinusoid / narrowband oscillation: Welch PSD peaks at a fine and a coarse resolution.
-  if (opts.search_sinusoid && n >= 256) {
-    auto pow2Below = [](int64_t v) {
-      int64_t p = 1;
-      while (p * 2 <= v) p *= 2;
-      return p;
-    };
-    const int64_t fine = std::min<int64_t>(pow2Below(n / 8), 65536);
-    const int64_t coarse = std::min<int64_t>(1024, pow2Below(n / 32));
-    std::vector<SpectralPeak> all;
-    for (int64_t seg : {fine, coarse}) {
-      if (seg < 64) continue;
-      const Psd psd = welchPsd(rate, fs, seg, 0.5);
-      for (const auto& pk : findPsdPeaks(psd, opts.psd_min_prominence_db, opts.psd_max_peaks)) all.push_back(pk);
-    }
-    // Merge duplicates: the same feature found at both resolutions. A feature no wider than 4 bins of the finest PSD
-    // it was found in is a line (sinusoid); wider ones are narrowband oscillations (a 0.3 Hz wide feature is 3
-    // coarse bins but 100 fine ones: not a line).
-    std::sort(all.begin(), all.end(), [](const SpectralPeak& a, const SpectralPeak& b) { return a.df < b.df; });
-    std::vector<SpectralPeak> kept;
-    std::vector<bool> kept_broad;  // wider than 4 bins at the finest resolution it was seen at: not a line
-    for (const auto& pk : all) {
-      bool dup = false;
-      for (size_t j = 0; j < kept.size(); ++j) {
-        SpectralPeak& k = kept[j];
-        const double sep = std::fabs(k.frequency_hz - pk.frequency_hz);
-        if (sep <= std::max({k.bandwidth_hz, pk.bandwidth_hz, 2 * pk.df})) {
-          dup = true;
-          // A fine-resolution detection that is broad in its own bins is better described by the coarse one.
-          if (k.bandwidth_hz > 4 * k.df && pk.bandwidth_hz > 4 * k.df) k = pk;
-          break;
-        }
-      }
-      if (!dup) {
-        kept.push_back(pk);
-        kept_broad.push_back(pk.bandwidth_hz > 4 * pk.df);
-      }
-    }
-    // Broad features: measure the whole excess, tails included, over an MA(1)-shaped floor on a mid-resolution PSD
-    // (>= ~250 segments, so each bin is within ~6 %; measureFeatureExcess).
-    // A feature narrower than 16 bins of that PSD gets a finer one (down to ~64 segments), so that its shape is
-    // resolved rather than the Hann window's.
-    const int64_t mid = std::min<int64_t>(8192, pow2Below(n / 128));
-    std::map<int64_t, Psd> mid_psd;
-    auto psdFor = [&](int64_t seg) -> const Psd& {
-      auto it = mid_psd.find(seg);
-      if (it == mid_psd.end()) it = mid_psd.emplace(seg, welchPsd(rate, fs, seg, 0.5)).first;
-      return it->second;
-    };
-    std::vector<FeatureExcess> excess(kept.size());
-    auto segFor = [&](double width) {
-      int64_t seg = mid;
-      while (seg < pow2Below(n / 32) && fs / seg > width / 16) seg *= 2;
-      return seg;
-    };
-    for (size_t k = 0; k < kept.size(); ++k) {
-      const SpectralPeak& pk = kept[k];
-      if (!kept_broad[k] && pk.bandwidth_hz <= 4 * pk.df) {
-        // Seen only as a line on a coarse PSD (a feature broader than the running median of the fine one is not
-        // found there): its half-power width on a PSD resolving it decides.
-        const int64_t seg = segFor(pk.bandwidth_hz);
-        if (seg < 64 || fs / seg >= pk.df / 2) continue;
-        const FeatureExcess fe = measureFeatureExcess(psdFor(seg), pk.frequency_hz, pk.bandwidth_hz, tau0);
-        if (!fe.ok) continue;
-        size_t top = 0;
-        for (size_t i = 1; i < fe.power.size(); ++i)
-          if (fe.power[i] > fe.power[top]) top = i;
-        size_t a = top, b = top;
-        while (a > 0 && fe.power[a - 1] >= 0.5 * fe.power[top]) --a;
-        while (b + 1 < fe.power.size() && fe.power[b + 1] >= 0.5 * fe.power[top]) ++b;
-        if (static_cast<double>(b - a + 1) <= 4.0) continue;  // a line there too
-        kept_broad[k] = true;
-        kept[k].bandwidth_hz = (b - a + 1) * fe.df;
-      }
-      const int64_t seg = segFor(pk.bandwidth_hz);
-      if (seg <= coarse || seg < 64) continue;
-      excess[k] = measureFeatureExcess(psdFor(seg), pk.frequency_hz, kept[k].bandwidth_hz, tau0);
-    }
-    // The curve's taus, where the fits evaluate the bases: a narrowband basis is tabulated there once.
-    auto curve_taus = std::make_shared<std::vector<double>>();
-    for (const auto& p : curve.points) curve_taus->push_back(p.tau);
-    std::sort(curve_taus->begin(), curve_taus->end());
-    for (size_t k = 0; k < kept.size(); ++k) {
-      const SpectralPeak& pk = kept[k];
-      if (pk.frequency_hz <= 0 || pk.frequency_hz >= fs / 2) continue;
-      Candidate c;
-      const bool line = !kept_broad[k] && pk.bandwidth_hz <= 4 * pk.df;
-      c.type = line ? "sinusoid" : "narrowband";
-      c.nature = line ? Nature::Deterministic : Nature::Narrowband;
-      char buf[512];
-      int len = std::snprintf(buf, sizeof buf,
-                              "PSD peak %.1f dB above the local median at %.4g Hz (%s %.3g Hz, %lld-sample Welch "
-                              "segments, amplitude %.3g)",
-                              pk.prominence_db, pk.frequency_hz, line ? "bin width" : "half-power width",
-                              line ? pk.df : pk.bandwidth_hz, static_cast<long long>(std::llround(fs / pk.df)),
-                              pk.amplitude);
-      const FeatureExcess& fe = excess[k];
-      if (!line && fe.ok && len > 0 && len < static_cast<int>(sizeof buf))
-        std::snprintf(buf + len, sizeof buf - len,
-                      "; excess over an MA(1)-shaped floor (lag-1 %.3f) from %.4g to %.4g Hz: amplitude %.3g",
-                      fe.floor_rho, fe.lo, fe.hi, std::sqrt(2 * fe.total));
-      c.evidence = buf;
-      const double f0 = pk.frequency_hz;
-      const double t0 = tau0;
-      // A line keeps its PSD frequency; a narrowband oscillation keeps the measured shape of its PSD excess: its
-      // AVAR is that of the excess spectrum (spectrumAvar) per unit c = 2 x total power, i.e. the excess-weighted
-      // mean of the sampled sinusoid term over the feature's bins. Tabulated at the curve's taus.
-      std::shared_ptr<std::vector<std::pair<double, double>>> table;
-      std::function<double(double)> shape;
-      if (!line && fe.ok) {
-        auto wts = std::make_shared<std::vector<double>>(fe.power);
-        for (auto& v : *wts) v /= fe.total;
-        const double fs0 = fe.f_start, dfe = fe.df;
-        shape = [wts, fs0, dfe, t0](double tau) { return 0.5 * spectrumAvar(tau, fs0, dfe, *wts, t0); };
-      } else if (!line && !pk.profile_f.empty()) {
-        // No mid-resolution PSD (short record): the peak finder's own profile of the feature.
-        auto fr = std::make_shared<std::vector<double>>(pk.profile_f);
-        auto wt = std::make_shared<std::vector<double>>(pk.profile_p);
-        double wsum = 0;
-        for (double v : *wt) wsum += v;
-        for (auto& v : *wt) v /= (wsum > 0 ? wsum : 1.0);
-        shape = [fr, wt, t0](double tau) {
-          double s = 0;
-          for (size_t i = 0; i < fr->size(); ++i) s += (*wt)[i] * sinusoidAvar(tau, (*fr)[i], t0);
-          return s;
-        };
-      }
-      if (shape) {
-        table = std::make_shared<std::vector<std::pair<double, double>>>();
-        for (double tau : *curve_taus) table->push_back({tau, shape(tau)});
-      }
-      c.make = [f0, t0, shape, table](double) {
-        ExtraTerm e;
-        if (!shape) {
-          e.name = "sinusoid";
-          e.basis = [f0, t0](double tau) { return sinusoidAvar(tau, f0, t0); };
-        } else {
-          e.name = "narrowband";
-          e.basis = [shape, table](double tau) {
-            const auto it = std::lower_bound(table->begin(), table->end(), std::make_pair(tau, -HUGE_VAL));
-            if (it != table->end() && it->first == tau) return it->second;
-            return shape(tau);
-          };
-        }
-        return e;
-      };
-      c.fixed["frequency_hz"] = {f0, line ? pk.df / 2 : pk.df};
-      if (!line) c.fixed["bandwidth_hz"] = {pk.bandwidth_hz, pk.df};
-      c.amplitude_name = "amplitude";
-      c.n_nonlinear = line ? 1 : 2;
-      cands.push_back(c);
-    }
-  }
+// The plain model's figures in the report (mc.before, its fit and residual).
+void recordBefore(const CheckInput& in, const Model& base, const std::vector<bool>& rms_mask, ModelCheck* mc) {
+  mc->fit_before = base.fit;
+  mc->model_var_before = base.fit.model_var;
+  mc->before.rms_log10 = rmsLog10(in.curve, base.fit.model_var, rms_mask);
+  mc->before.chi2_dof = base.fit.chi2_dof;
+  mc->before.bic = base.bic;
+  mc->before.n_params = countParams(base.fit);
+  mc->residual_before = analyzeResidual(base.weighted, base.fit, {}, in.opts.structured_alpha);
+}
 
-  // ---- Gauss-Markov: exponential autocorrelation of the raw samples and of block means.
-  if (opts.search_gauss_markov) {
-    struct Scale {
-      int64_t block;
-      std::string what;
-    };
-    const int64_t big = std::max<int64_t>(2, n / 4000);
-    for (const Scale& sc : {Scale{1, "samples"}, Scale{big, "block means"}}) {
-      const std::vector<double> x = sc.block == 1 ? rate : blockMeans(rate, sc.block);
-      const int64_t nx = static_cast<int64_t>(x.size());
-      if (nx < 200) continue;
-      const std::vector<double> ac = autocovariance(x, std::min<int64_t>(nx / 10, 400));
-      if (!(ac[0] > 0)) continue;
-      std::vector<double> rho(ac.size());
-      for (size_t k = 0; k < ac.size(); ++k) rho[k] = ac[k] / ac[0];
-      const double noise = 1.0 / std::sqrt(static_cast<double>(nx));
-      if (rho[1] < opts.acf_min_z * noise) continue;
-      const double dt = sc.block * tau0;
-      if (sc.block == 1) {
-        // Noise correlated over a few samples (internal filter): the -3 M1 (tau0/tau)^2 correction with
-        // M1 = sum k gamma_k >= 0 fitted; evidence from the first lags.
-        Candidate c;
-        c.type = "short_correlation";
-        c.nature = Nature::Correction;
-        char buf[256];
-        std::snprintf(buf, sizeof buf,
-                      "autocorrelation of the samples: lag-1 %.3f, lag-2 %.3f, lag-3 %.3f (white: 0 +- %.4f): noise "
-                      "correlated over a few samples (sensor low-pass/decimation filter)",
-                      rho[1], rho.size() > 2 ? rho[2] : 0.0, rho.size() > 3 ? rho[3] : 0.0, noise);
-        c.evidence = buf;
-        const double t0 = tau0;
-        c.make = [t0](double) {
-          ExtraTerm e;
-          e.name = "short_correlation";
-          e.basis = [t0](double tau) { return shortCorrelationAvar(tau, t0); };
-          return e;
-        };
-        c.fixed["lag1_correlation"] = {rho[1], noise};
-        c.amplitude_name = "sqrt_m1";
-        cands.push_back(c);
-      }
-      const ExponentialAcfFit ef = fitExponentialAcf(rho, dt, 3 * noise);
-      if (!ef.ok || !(ef.tc > 0)) continue;
-      Candidate c;
-      c.type = "gauss_markov";
-      c.nature = Nature::GaussMarkov;
-      char buf[256];
-      std::snprintf(buf, sizeof buf,
-                    "autocorrelation of %s (%.3g s) decays exponentially: lag-1 %.3f (white: 0 +- %.4f), correlation "
-                    "time %.3g s over %d lags (r2 %.2f)",
-                    sc.what.c_str(), dt, rho[1], noise, ef.tc, ef.lags, ef.r2);
-      c.evidence = buf;
-      const double t0 = tau0;
-      c.make = [t0](double tc) {
-        ExtraTerm e;
-        e.name = "gauss_markov";
-        e.basis = [tc, t0](double tau) { return gaussMarkovAvar(tau, tc, t0); };
-        return e;
-      };
-      c.p0 = ef.tc;
-      c.p_lo = std::max(tau0 / 4, ef.tc / 6);
-      c.p_hi = std::min(T / 20, ef.tc * 6);  // >= 20 correlation times in the record to tell it from K
-      if (!(c.p_hi > c.p_lo)) continue;
-      c.n_nonlinear = 1;
-      c.nonlinear_name = "tau_c_s";
-      c.amplitude_name = "sigma";
-      cands.push_back(c);
-    }
-  }
-
-  // ---- Bias step: block-mean differences at the averaging time of the curve's minimum.
-  if (opts.search_bias_step) {
-    double tau_min = curve.points.front().tau, dev_min = std::numeric_limits<double>::infinity();
-    for (const auto& p : curve.points)
-      if (p.var > 0 && p.var < dev_min) {
-        dev_min = p.var;
-        tau_min = p.tau;
-      }
-    std::vector<int64_t> blocks;
-    blocks.push_back(std::clamp<int64_t>(static_cast<int64_t>(tau_min / tau0), std::max<int64_t>(1, n / 1000),
-                                         std::max<int64_t>(1, n / 50)));
-    blocks.push_back(std::max<int64_t>(1, n / 200));
-    MeanShift best;
-    int64_t best_block = 0;
-    for (int64_t b : blocks) {
-      const MeanShift s = detectMeanShift(rate, b, opts.step_min_z);
-      if (s.found && s.z > best.z) {
-        best = s;
-        best_block = b;
-      }
-    }
-    if (best.found) {
-      // Location uncertainty of a step in white noise: about (sigma_sample / size)^2 samples.
-      std::vector<double> d(std::min<int64_t>(n - 1, 200000));
-      for (size_t i = 0; i < d.size(); ++i) d[i] = std::fabs(rate[i + 1] - rate[i]);
-      const double s_sample = upperMedianInPlace(d) / 0.6745 / std::sqrt(2.0);
-      const double ts = best.index * tau0;
-      const double ts_sigma = tau0 * std::max(1.0, (s_sample / best.size) * (s_sample / best.size));
-      Candidate c;
-      c.type = "bias_step";
-      c.localized = true;
-      char buf[256];
-      std::snprintf(buf, sizeof buf,
-                    "difference of %.3g s block means %.1f robust sigmas at t = %.4g s; least-squares step %.3g",
-                    best_block * tau0, best.z, ts, best.size);
-      c.evidence = buf;
-      c.make = [ts, T](double) {
-        ExtraTerm e;
-        e.name = "bias_step";
-        e.basis = [ts, T](double tau) { return biasStepAvar(tau, ts, T); };
-        return e;
-      };
-      c.fixed["time_s"] = {ts, ts_sigma};
-      c.n_nonlinear = 1;
-      c.amplitude_name = "size";
-      c.amplitude_sign = best.size >= 0 ? 1.0 : -1.0;
-      cands.push_back(c);
-    }
-  }
-
-  // ---- Thermal drift: regression on temperature when given, otherwise a warm-up exponential.
-  if (opts.search_thermal) {
-    const int64_t b = std::max<int64_t>(1, n / 200);
-    const std::vector<double> rb = blockMeans(rate, b);
-    if (temperature && rb.size() >= 8) {
-      const std::vector<double> tb = blockMeans(*temperature, b);
-      bool varies = false;
-      for (double v : tb) varies = varies || std::fabs(v - tb.front()) > 0;
-      if (varies) {
-        const LinearRegression lr = linearRegression(tb, rb);
-        const double z = lr.slope_sigma > 0 ? std::fabs(lr.slope) / lr.slope_sigma : 0.0;
-        if (z >= opts.thermal_min_z) {
-          // Empirical basis: the AVAR of the temperature series itself, at the curve's factors (log-log interpolated
-          // elsewhere); c = (rate per degC)^2.
-          auto tab = std::make_shared<std::vector<std::pair<double, double>>>();
-          for (const auto& p : curve.points) {
-            const int64_t m = std::max<int64_t>(1, p.m > 0 ? p.m : static_cast<int64_t>(std::llround(p.tau / tau0)));
-            tab->push_back({p.tau, overlappingAvarAt(*temperature, m)});
-          }
-          Candidate c;
-          c.type = "thermal_drift";
-          char buf[256];
-          std::snprintf(buf, sizeof buf,
-                        "rate vs temperature over %.3g s blocks: slope %.3g +- %.2g (rad/s)/degC, r = %.2f", b * tau0,
-                        lr.slope, lr.slope_sigma, lr.r);
-          c.evidence = buf;
-          c.make = [tab](double) {
-            ExtraTerm e;
-            e.name = "thermal_drift";
-            e.basis = [tab](double tau) {
-              const auto& t = *tab;
-              if (t.empty()) return 0.0;
-              if (tau <= t.front().first) return t.front().second;
-              if (tau >= t.back().first) return t.back().second;
-              for (size_t i = 1; i < t.size(); ++i)
-                if (tau <= t[i].first) {
-                  const double a = t[i - 1].second, bv = t[i].second;
-                  if (!(a > 0) || !(bv > 0)) return a + (bv - a) * (tau - t[i - 1].first) / (t[i].first - t[i - 1].first);
-                  const double w = std::log(tau / t[i - 1].first) / std::log(t[i].first / t[i - 1].first);
-                  return std::exp(std::log(a) + w * (std::log(bv) - std::log(a)));
-                }
-              return t.back().second;
-            };
-            return e;
-          };
-          c.amplitude_name = "coefficient_per_degc";
-          c.amplitude_sign = lr.slope >= 0 ? 1.0 : -1.0;
-          cands.push_back(c);
-        }
-      }
-    } else if (rb.size() >= 16) {
-      // theta <= T/3: a warm-up that does not settle within the record cannot be told from a ramp or a random walk.
-      const WarmupFit wf = fitWarmup(rb, b * tau0, T / 200, T / 3);
-      // White-noise sigma of the block means from their first differences: a random walk or flicker makes the fit's
-      // own a_sigma optimistic, so the evidence threshold is high and the BIC decides.
-      // A random walk of the bias also looks like a warm-up over one record: require the block means left after
-      // the warm-up to be little correlated (lag-1 < 0.5), as they are for white/flicker noise but not for a walk.
-      double resid_rho1 = 1.0;
-      if (wf.ok) {
-        std::vector<double> res(rb.size());
-        double mean = 0;
-        for (size_t i = 0; i < rb.size(); ++i) {
-          res[i] = rb[i] - wf.a * -std::expm1(-(i + 0.5) * b * tau0 / wf.theta);
-          mean += res[i];
-        }
-        mean /= res.size();
-        double c0 = 0, c1 = 0;
-        for (size_t i = 0; i < res.size(); ++i) {
-          c0 += (res[i] - mean) * (res[i] - mean);
-          if (i + 1 < res.size()) c1 += (res[i] - mean) * (res[i + 1] - mean);
-        }
-        resid_rho1 = c0 > 0 ? c1 / c0 : 1.0;
-      }
-      if (wf.ok && wf.a_sigma > 0 && std::fabs(wf.a) / wf.a_sigma >= opts.warmup_min_z && resid_rho1 < 0.5) {
-        Candidate c;
-        c.type = "warmup";
-        c.localized = true;
-        char buf[256];
-        std::snprintf(buf, sizeof buf,
-                      "%.3g s block means follow a (1 - exp(-t/theta)): a = %.3g +- %.2g, theta = %.3g s, residual "
-                      "lag-1 correlation %.2f",
-                      b * tau0, wf.a, wf.a_sigma, wf.theta, resid_rho1);
-        c.evidence = buf;
-        c.make = [T](double theta) {
-          ExtraTerm e;
-          e.name = "warmup";
-          e.basis = [theta, T](double tau) { return warmupAvar(tau, theta, T); };
-          return e;
-        };
-        c.p0 = wf.theta;
-        c.p_lo = wf.theta / 4;
-        c.p_hi = std::min(wf.theta * 4, T / 3);
-        c.n_nonlinear = 1;
-        c.nonlinear_name = "theta_s";
-        c.amplitude_name = "amplitude";
-        c.amplitude_sign = wf.a >= 0 ? 1.0 : -1.0;
-        cands.push_back(c);
-      }
-    }
-  }
-
-  // ---- Impulsive outliers (shocks).
-  if (opts.search_outliers) {
-    const Outliers o = detectOutliers(rate, tau0, opts.outlier_min_z);
-    if (!o.index.empty() && static_cast<int64_t>(o.index.size()) * 1000 < n) {
-      Candidate c;
-      c.type = "outliers";
-      c.localized = true;
-      char buf[256];
-      std::snprintf(buf, sizeof buf, "%zu samples beyond %.0f robust sigmas (%.3g) of their local median, first at t = %.4g s",
-                    o.index.size(), opts.outlier_min_z, o.robust_sigma, o.index.front() * tau0);
-      c.evidence = buf;
-      c.make = [T](double) {
-        ExtraTerm e;
-        e.name = "outliers";
-        e.basis = [T](double tau) { return impulseAvar(tau, T); };
-        return e;
-      };
-      c.fixed["count"] = {static_cast<double>(o.index.size()), 0.0};
-      c.amplitude_name = "rss_area";
-      cands.push_back(c);
-    }
-  }
-
-  // ---- Greedy forward selection with the BIC.
-  Model current = base;
-  auto evaluate = [&](const Candidate& c, double p) {
-    Trial t;
-    t.p = p;
-    t.term = c.make(p);
-    std::vector<ExtraTerm> ex = current.extra;
-    std::vector<TermInfo> info = current.info;
-    ex.push_back(t.term);
-    TermInfo ti;
-    ti.nature = c.nature;
-    ti.tc = p;
-    ti.localized = c.localized ? T : 0.0;
-    info.push_back(ti);
-    // Only a deterministic effect may stand in for K and R (a stochastic one would just trade places with them).
-    t.model = fitModel(curve, current, opts.fit, ex, info, current.n_nonlinear + c.n_nonlinear,
-                       c.nature == Nature::Deterministic);
-    return t;
+// Candidate::make of every candidate type: a term named `name` with AVAR basis(p, tau), p the candidate's
+// nonlinear parameter (ignored by types without one).
+std::function<ExtraTerm(double)> termMaker(const std::string& name, std::function<double(double, double)> basis) {
+  return [name, basis](double p) {
+    ExtraTerm e;
+    e.name = name;
+    e.basis = [basis, p](double tau) { return basis(p, tau); };
+    return e;
   };
-  // Kept effects, parallel to current.extra: the report and the candidate it came from.
-  std::vector<DetectedEffect> kept;
-  std::vector<size_t> kept_cand;
-  const double min_gain = opts.min_rms_gain;  // negative: the gate is off (studies only)
-  // Significance of the newest (index e) extra term of a fit: sqrt(c) over its sigma.
-  auto amplitudeZ = [](const FitResult& f, size_t e) {
-    if (e >= f.extra.size() || e >= f.extra_c.size() || !(f.extra_c[e] > 0)) return 0.0;
-    const Coefficient& co = f.extra[e];
-    return co.sigma > 0 ? co.value / co.sigma : std::numeric_limits<double>::infinity();
-  };
-  for (int round = 0; round < opts.max_effects; ++round) {
-    struct Scored {
-      size_t ci;
-      Trial trial;
-    };
-    std::vector<Scored> scored;
-    for (size_t ci = 0; ci < cands.size(); ++ci) {
-      Candidate& c = cands[ci];
-      if (c.used) continue;
-      Trial bt;
-      if (c.p_hi > c.p_lo) {
-        // Log grid, then golden-section refinement between the best point's neighbours.
-        const int ng = 21;
-        std::vector<double> grid(ng);
-        std::vector<Trial> trials(ng);
-        int bi = -1;
-        for (int g = 0; g < ng; ++g) {
-          grid[g] = c.p_lo * std::pow(c.p_hi / c.p_lo, static_cast<double>(g) / (ng - 1));
-          trials[g] = evaluate(c, grid[g]);
-          if (trials[g].model.ok && (bi < 0 || trials[g].model.bic < trials[bi].model.bic)) bi = g;
-        }
-        if (bi < 0) continue;
-        double a = std::log(grid[std::max(0, bi - 1)]), b = std::log(grid[std::min(ng - 1, bi + 1)]);
-        bt = trials[bi];
-        const double gr = 0.5 * (std::sqrt(5.0) - 1.0);
-        double x1 = b - gr * (b - a), x2 = a + gr * (b - a);
-        Trial t1 = evaluate(c, std::exp(x1)), t2 = evaluate(c, std::exp(x2));
-        for (int it = 0; it < 12; ++it) {
-          if (t1.model.bic < t2.model.bic) {
-            b = x2;
-            x2 = x1;
-            t2 = t1;
-            x1 = b - gr * (b - a);
-            t1 = evaluate(c, std::exp(x1));
-          } else {
-            a = x1;
-            x1 = x2;
-            t1 = t2;
-            x2 = a + gr * (b - a);
-            t2 = evaluate(c, std::exp(x2));
-          }
-        }
-        const Trial& tb = t1.model.bic < t2.model.bic ? t1 : t2;
-        if (tb.model.ok && tb.model.bic < bt.model.bic) bt = tb;
-        // Sigma of the parameter from the curvature of -2 ln L (= BIC up to a constant) in ln p, inflated by the
-        // reduced chi2 when it exceeds 1.
-        const double h = 0.05;
-        const Trial tm = evaluate(c, bt.p * std::exp(-h)), tp = evaluate(c, bt.p * std::exp(h));
-        const double curv = (tm.model.bic + tp.model.bic - 2 * bt.model.bic) / (h * h);
-        const double infl = std::max(1.0, bt.model.fit.chi2_dof);
-        bt.p_sigma = (curv > 0 && tm.model.ok && tp.model.ok) ? bt.p * std::sqrt(2.0 / curv * infl) : bt.p;
-      } else {
-        bt = evaluate(c, c.p0);
-      }
-      if (!bt.model.ok) continue;
-      // The effect must be present in the refit (NNLS may put it at zero).
-      const double cval = bt.model.fit.extra_c.empty() ? 0.0 : bt.model.fit.extra_c.back();
-      if (!(cval > 0)) {
-        c.used = true;
-        mc.rejected.push_back(c.type + ": the refit gives it zero amplitude (" + c.evidence + ")");
-        continue;
-      }
-      scored.push_back({ci, bt});
-    }
-    if (scored.empty()) break;
-    // Best BIC first. A candidate is added when it passes the BIC gate and is significant (amplitude, nonlinear
-    // parameter); one that fails is rejected (with its numbers) and the next one is examined; an added one ends the
-    // round. Whether it lowers the RMS error is judged on the final joint model (below): effects that only work
-    // together (the ADIS16405 z gyro's narrowband feature and its filter correlation each raise the error alone,
-    // 0.050 -> 0.083 and 0.075, and lower it together to 0.0065) must not be cut one step at a time.
-    std::stable_sort(scored.begin(), scored.end(),
-                     [](const Scored& x, const Scored& y) { return x.trial.model.bic < y.trial.model.bic; });
-    const double rms_now = rmsLog10(curve, current.fit.model_var, rms_mask);  // for the rejection messages
-    bool added = false;
-    for (const Scored& sc : scored) {
-      Candidate& c = cands[sc.ci];
-      const Trial& best = sc.trial;
-      c.used = true;
-      const double gain = current.bic - best.model.bic;
-      const bool stochastic = c.nature == Nature::GaussMarkov || c.nature == Nature::Narrowband;
-      const double margin = stochastic ? opts.bic_margin_stochastic : opts.bic_margin;
-      if (gain < margin) {
-        mc.rejected.push_back(c.type + ": BIC improves by only " + fmt("%.1f", gain) + " (< " + fmt("%.0f", margin) +
-                              "; " + c.evidence + ")");
-        continue;
-      }
-      const double rms_new = rmsLog10(curve, best.model.fit.model_var, rms_mask);
-      const double az = amplitudeZ(best.model.fit, best.model.fit.extra.size() - 1);
-      if (!(az >= opts.min_amplitude_z)) {
-        mc.rejected.push_back(c.type + ": " + c.amplitude_name + " " + fmt("%.3g", best.model.fit.extra.back().value) +
-                              " is " + fmt("%.1f", az) + " sigma (needs " + fmt("%.0f", opts.min_amplitude_z) +
-                              "; RMS log10 " + fmt("%.4f", rms_now) + " -> " + fmt("%.4f", rms_new) + "; " +
-                              c.evidence + ")");
-        continue;
-      }
-      if (!c.nonlinear_name.empty() && !(best.p > 0 && best.p_sigma <= opts.max_nonlinear_rel_sigma * best.p)) {
-        mc.rejected.push_back(c.type + ": " + c.nonlinear_name + " " + fmt("%.3g", best.p) + " +- " +
-                              fmt("%.2g", best.p_sigma) + " (" + fmt("%.0f", 100 * best.p_sigma / best.p) +
-                              " %, needs <= " + fmt("%.0f", 100 * opts.max_nonlinear_rel_sigma) + " %; " +
-                              c.evidence + ")");
-        continue;
-      }
-      DetectedEffect eff;
-      eff.type = c.type;
-      eff.evidence = c.evidence;
-      eff.delta_bic = gain;
-      eff.term = best.term;
-      eff.parameters = c.fixed;
-      if (!c.nonlinear_name.empty()) eff.parameters[c.nonlinear_name] = {best.p, best.p_sigma};
-      eff.parameters[c.amplitude_name] = {c.amplitude_sign, 0.0};  // filled below from the joint refit
-      kept.push_back(eff);
-      kept_cand.push_back(sc.ci);
-      current = best.model;
-      added = true;
-      break;
-    }
-    if (!added) break;
-  }
-  for (const auto& c : cands)
-    if (!c.used) mc.rejected.push_back(c.type + ": not examined (effect limit reached; " + c.evidence + ")");
+}
 
-  // Every kept effect again in the final joint model, until nothing changes:
-  //  - significance: one whose amplitude went to zero or below min_amplitude_z in the joint refit (another effect
-  //    took its place) is dropped, the least significant first;
-  //  - RMS error: the joint model must describe the curve better than the same model refitted without that effect
-  //    by min_rms_gain (without the only effect: the plain fit); otherwise the effect whose removal costs least is
-  //    dropped (a BIC gain with an RMS error that does not fall is a traded weight: a flicker wiggle taken for a
-  //    Gauss-Markov bump, a stretch of rate random walk taken for a warm-up, a bias step that K already describes).
-  auto without = [&](size_t drop, Model* out) {
-    std::vector<ExtraTerm> ex;
-    std::vector<TermInfo> info;
-    int nn = 0;
-    bool deterministic = false;
-    for (size_t e = 0; e < current.extra.size(); ++e) {
-      if (e == drop) continue;
-      ex.push_back(current.extra[e]);
-      info.push_back(current.info[e]);
-      deterministic = deterministic || current.info[e].nature == Nature::Deterministic;
-      nn += cands[kept_cand[e]].n_nonlinear;
-    }
-    if (ex.empty()) {
-      *out = base;
-      return true;
-    }
-    *out = fitModel(curve, base, opts.fit, ex, info, nn, deterministic);
-    return out->ok;
-  };
-  auto dropKept = [&](size_t e, const Model& rest) {
-    kept.erase(kept.begin() + static_cast<std::ptrdiff_t>(e));
-    kept_cand.erase(kept_cand.begin() + static_cast<std::ptrdiff_t>(e));
-    current = rest;
-  };
-  while (!kept.empty()) {
-    size_t worst = kept.size();
-    double worst_z = opts.min_amplitude_z;
-    for (size_t e = 0; e < kept.size(); ++e) {
-      const double z = amplitudeZ(current.fit, e);
-      if (!(z >= worst_z)) {
-        worst_z = z;
-        worst = e;
-      }
-    }
-    if (worst < kept.size()) {
-      Model rest;
-      const bool ok = without(worst, &rest);
-      mc.rejected.push_back(kept[worst].type + ": dropped in the joint refit with " + std::to_string(kept.size() - 1) +
-                            " other effect(s): amplitude " +
-                            fmt("%.3g", worst < current.fit.extra.size() ? current.fit.extra[worst].value : 0.0) +
-                            " is " + fmt("%.1f", worst_z) + " sigma (needs " + fmt("%.0f", opts.min_amplitude_z) +
-                            "; " + kept[worst].evidence + ")");
-      if (!ok) {
-        mc.rejected.push_back("joint refit without the dropped effect failed: plain fit kept");
-        kept.clear();
-        kept_cand.clear();
-        current = base;
+// Largest power of two <= v (1 for v < 2).
+int64_t pow2Below(int64_t v) {
+  int64_t p = 1;
+  while (p * 2 <= v) p *= 2;
+  return p;
+}
+
+// Spectral features of the record: peaks (duplicates across resolutions merged), which are broad, and the measured
+// excess of the broad ones.
+struct SpectralFeatures {
+  std::vector<SpectralPeak> peaks;
+  std::vector<bool> broad;            // wider than 4 bins at the finest resolution it was seen at: not a line
+  std::vector<FeatureExcess> excess;  // parallel to peaks (ok only for measured broad features)
+  int64_t coarse = 0;                 // segment length of the coarse PSD
+};
+
+// Welch PSD peaks at a fine and a coarse resolution, the same feature found at both merged.
+SpectralFeatures findSpectralFeatures(const CheckInput& in) {
+  const int64_t n = in.n;
+  SpectralFeatures sf;
+  const int64_t fine = std::min<int64_t>(pow2Below(n / 8), 65536);
+  sf.coarse = std::min<int64_t>(1024, pow2Below(n / 32));
+  std::vector<SpectralPeak> all;
+  for (int64_t seg : {fine, sf.coarse}) {
+    if (seg < 64) continue;
+    const Psd psd = welchPsd(in.rate, in.fs, seg, 0.5);
+    for (const auto& pk : findPsdPeaks(psd, in.opts.psd_min_prominence_db, in.opts.psd_max_peaks)) all.push_back(pk);
+  }
+  // Merge duplicates: the same feature found at both resolutions. A feature no wider than 4 bins of the finest PSD
+  // it was found in is a line (sinusoid); wider ones are narrowband oscillations (a 0.3 Hz wide feature is 3
+  // coarse bins but 100 fine ones: not a line).
+  std::sort(all.begin(), all.end(), [](const SpectralPeak& a, const SpectralPeak& b) { return a.df < b.df; });
+  std::vector<SpectralPeak>& kept = sf.peaks;
+  for (const auto& pk : all) {
+    bool dup = false;
+    for (size_t j = 0; j < kept.size(); ++j) {
+      SpectralPeak& k = kept[j];
+      const double sep = std::fabs(k.frequency_hz - pk.frequency_hz);
+      if (sep <= std::max({k.bandwidth_hz, pk.bandwidth_hz, 2 * pk.df})) {
+        dup = true;
+        // A fine-resolution detection that is broad in its own bins is better described by the coarse one.
+        if (k.bandwidth_hz > 4 * k.df && pk.bandwidth_hz > 4 * k.df) k = pk;
         break;
       }
-      dropKept(worst, rest);
+    }
+    if (!dup) {
+      kept.push_back(pk);
+      sf.broad.push_back(pk.bandwidth_hz > 4 * pk.df);
+    }
+  }
+  return sf;
+}
+
+// Broad features: measure the whole excess, tails included, over an MA(1)-shaped floor on a mid-resolution PSD
+// (>= ~250 segments, so each bin is within ~6 %; measureFeatureExcess).
+// A feature narrower than 16 bins of that PSD gets a finer one (down to ~64 segments), so that its shape is
+// resolved rather than the Hann window's.
+void measureBroadFeatures(const CheckInput& in, SpectralFeatures* sf) {
+  const int64_t n = in.n;
+  const double fs = in.fs;
+  std::vector<SpectralPeak>& kept = sf->peaks;
+  std::vector<bool>& kept_broad = sf->broad;
+  const int64_t mid = std::min<int64_t>(8192, pow2Below(n / 128));
+  std::map<int64_t, Psd> mid_psd;
+  auto psdFor = [&](int64_t seg) -> const Psd& {
+    auto it = mid_psd.find(seg);
+    if (it == mid_psd.end()) it = mid_psd.emplace(seg, welchPsd(in.rate, fs, seg, 0.5)).first;
+    return it->second;
+  };
+  std::vector<FeatureExcess>& excess = sf->excess;
+  excess.assign(kept.size(), FeatureExcess{});
+  auto segFor = [&](double width) {
+    int64_t seg = mid;
+    while (seg < pow2Below(n / 32) && fs / seg > width / 16) seg *= 2;
+    return seg;
+  };
+  for (size_t k = 0; k < kept.size(); ++k) {
+    const SpectralPeak& pk = kept[k];
+    if (!kept_broad[k] && pk.bandwidth_hz <= 4 * pk.df) {
+      // Seen only as a line on a coarse PSD (a feature broader than the running median of the fine one is not
+      // found there): its half-power width on a PSD resolving it decides.
+      const int64_t seg = segFor(pk.bandwidth_hz);
+      if (seg < 64 || fs / seg >= pk.df / 2) continue;
+      const FeatureExcess fe = measureFeatureExcess(psdFor(seg), pk.frequency_hz, pk.bandwidth_hz, in.tau0);
+      if (!fe.ok) continue;
+      size_t top = 0;
+      for (size_t i = 1; i < fe.power.size(); ++i)
+        if (fe.power[i] > fe.power[top]) top = i;
+      size_t a = top, b = top;
+      while (a > 0 && fe.power[a - 1] >= 0.5 * fe.power[top]) --a;
+      while (b + 1 < fe.power.size() && fe.power[b + 1] >= 0.5 * fe.power[top]) ++b;
+      if (static_cast<double>(b - a + 1) <= 4.0) continue;  // a line there too
+      kept_broad[k] = true;
+      kept[k].bandwidth_hz = (b - a + 1) * fe.df;
+    }
+    const int64_t seg = segFor(pk.bandwidth_hz);
+    if (seg <= sf->coarse || seg < 64) continue;
+    excess[k] = measureFeatureExcess(psdFor(seg), pk.frequency_hz, kept[k].bandwidth_hz, in.tau0);
+  }
+}
+
+// The sinusoid (a line) or narrowband-oscillation candidate of one spectral feature; curve_taus: the curve's taus,
+// sorted, where a narrowband basis is tabulated.
+Candidate spectralCandidate(const CheckInput& in, const SpectralPeak& pk, bool broad, const FeatureExcess& fe,
+                            const std::shared_ptr<std::vector<double>>& curve_taus) {
+  const double fs = in.fs;
+  Candidate c;
+  const bool line = !broad && pk.bandwidth_hz <= 4 * pk.df;
+  c.type = line ? "sinusoid" : "narrowband";
+  c.nature = line ? Nature::Deterministic : Nature::Narrowband;
+  char buf[512];
+  int len = std::snprintf(buf, sizeof buf,
+                          "PSD peak %.1f dB above the local median at %.4g Hz (%s %.3g Hz, %lld-sample Welch "
+                          "segments, amplitude %.3g)",
+                          pk.prominence_db, pk.frequency_hz, line ? "bin width" : "half-power width",
+                          line ? pk.df : pk.bandwidth_hz, static_cast<long long>(std::llround(fs / pk.df)),
+                          pk.amplitude);
+  if (!line && fe.ok && len > 0 && len < static_cast<int>(sizeof buf))
+    std::snprintf(buf + len, sizeof buf - len,
+                  "; excess over an MA(1)-shaped floor (lag-1 %.3f) from %.4g to %.4g Hz: amplitude %.3g",
+                  fe.floor_rho, fe.lo, fe.hi, std::sqrt(2 * fe.total));
+  c.evidence = buf;
+  const double f0 = pk.frequency_hz;
+  const double t0 = in.tau0;
+  // A line keeps its PSD frequency; a narrowband oscillation keeps the measured shape of its PSD excess: its
+  // AVAR is that of the excess spectrum (spectrumAvar) per unit c = 2 x total power, i.e. the excess-weighted
+  // mean of the sampled sinusoid term over the feature's bins. Tabulated at the curve's taus.
+  std::shared_ptr<std::vector<std::pair<double, double>>> table;
+  std::function<double(double)> shape;
+  if (!line && fe.ok) {
+    auto wts = std::make_shared<std::vector<double>>(fe.power);
+    for (auto& v : *wts) v /= fe.total;
+    const double fs0 = fe.f_start, dfe = fe.df;
+    shape = [wts, fs0, dfe, t0](double tau) { return 0.5 * spectrumAvar(tau, fs0, dfe, *wts, t0); };
+  } else if (!line && !pk.profile_f.empty()) {
+    // No mid-resolution PSD (short record): the peak finder's own profile of the feature.
+    auto fr = std::make_shared<std::vector<double>>(pk.profile_f);
+    auto wt = std::make_shared<std::vector<double>>(pk.profile_p);
+    double wsum = 0;
+    for (double v : *wt) wsum += v;
+    for (auto& v : *wt) v /= (wsum > 0 ? wsum : 1.0);
+    shape = [fr, wt, t0](double tau) {
+      double s = 0;
+      for (size_t i = 0; i < fr->size(); ++i) s += (*wt)[i] * sinusoidAvar(tau, (*fr)[i], t0);
+      return s;
+    };
+  }
+  if (shape) {
+    table = std::make_shared<std::vector<std::pair<double, double>>>();
+    for (double tau : *curve_taus) table->push_back({tau, shape(tau)});
+    c.make = termMaker("narrowband", [shape, table](double, double tau) {
+      const auto it = std::lower_bound(table->begin(), table->end(), std::make_pair(tau, -HUGE_VAL));
+      if (it != table->end() && it->first == tau) return it->second;
+      return shape(tau);
+    });
+  } else {
+    c.make = termMaker("sinusoid", [f0, t0](double, double tau) { return sinusoidAvar(tau, f0, t0); });
+  }
+  c.fixed["frequency_hz"] = {f0, line ? pk.df / 2 : pk.df};
+  if (!line) c.fixed["bandwidth_hz"] = {pk.bandwidth_hz, pk.df};
+  c.amplitude_name = "amplitude";
+  c.n_nonlinear = line ? 1 : 2;
+  return c;
+}
+
+// Sinusoid / narrowband oscillation candidates: Welch PSD peaks at a fine and a coarse resolution.
+void addSpectralCandidates(const CheckInput& in, std::vector<Candidate>* cands) {
+  SpectralFeatures sf = findSpectralFeatures(in);
+  measureBroadFeatures(in, &sf);
+  // The curve's taus, where the fits evaluate the bases: a narrowband basis is tabulated there once.
+  auto curve_taus = std::make_shared<std::vector<double>>();
+  for (const auto& p : in.curve.points) curve_taus->push_back(p.tau);
+  std::sort(curve_taus->begin(), curve_taus->end());
+  for (size_t k = 0; k < sf.peaks.size(); ++k) {
+    const SpectralPeak& pk = sf.peaks[k];
+    if (pk.frequency_hz <= 0 || pk.frequency_hz >= in.fs / 2) continue;
+    cands->push_back(spectralCandidate(in, pk, sf.broad[k], sf.excess[k], curve_taus));
+  }
+}
+
+// Noise correlated over a few samples (internal filter): the -3 M1 (tau0/tau)^2 correction with
+// M1 = sum k gamma_k >= 0 fitted; evidence from the first lags of the samples' autocorrelation rho.
+Candidate shortCorrelationCandidate(const std::vector<double>& rho, double noise, double tau0) {
+  Candidate c;
+  c.type = "short_correlation";
+  c.nature = Nature::Correction;
+  char buf[256];
+  std::snprintf(buf, sizeof buf,
+                "autocorrelation of the samples: lag-1 %.3f, lag-2 %.3f, lag-3 %.3f (white: 0 +- %.4f): noise "
+                "correlated over a few samples (sensor low-pass/decimation filter)",
+                rho[1], rho.size() > 2 ? rho[2] : 0.0, rho.size() > 3 ? rho[3] : 0.0, noise);
+  c.evidence = buf;
+  const double t0 = tau0;
+  c.make = termMaker("short_correlation", [t0](double, double tau) { return shortCorrelationAvar(tau, t0); });
+  c.fixed["lag1_correlation"] = {rho[1], noise};
+  c.amplitude_name = "sqrt_m1";
+  return c;
+}
+
+// Gauss-Markov candidates: exponential autocorrelation of the raw samples and of block means (and the
+// short-correlation candidate from the samples' first lags).
+void addGaussMarkovCandidates(const CheckInput& in, std::vector<Candidate>* cands) {
+  struct Scale {
+    int64_t block;
+    std::string what;
+  };
+  const int64_t big = std::max<int64_t>(2, in.n / 4000);
+  for (const Scale& sc : {Scale{1, "samples"}, Scale{big, "block means"}}) {
+    const std::vector<double> x = sc.block == 1 ? in.rate : blockMeans(in.rate, sc.block);
+    const int64_t nx = static_cast<int64_t>(x.size());
+    if (nx < 200) continue;
+    const std::vector<double> ac = autocovariance(x, std::min<int64_t>(nx / 10, 400));
+    if (!(ac[0] > 0)) continue;
+    std::vector<double> rho(ac.size());
+    for (size_t k = 0; k < ac.size(); ++k) rho[k] = ac[k] / ac[0];
+    const double noise = 1.0 / std::sqrt(static_cast<double>(nx));
+    if (rho[1] < in.opts.acf_min_z * noise) continue;
+    const double dt = sc.block * in.tau0;
+    if (sc.block == 1) cands->push_back(shortCorrelationCandidate(rho, noise, in.tau0));
+    const ExponentialAcfFit ef = fitExponentialAcf(rho, dt, 3 * noise);
+    if (!ef.ok || !(ef.tc > 0)) continue;
+    Candidate c;
+    c.type = "gauss_markov";
+    c.nature = Nature::GaussMarkov;
+    char buf[256];
+    std::snprintf(buf, sizeof buf,
+                  "autocorrelation of %s (%.3g s) decays exponentially: lag-1 %.3f (white: 0 +- %.4f), correlation "
+                  "time %.3g s over %d lags (r2 %.2f)",
+                  sc.what.c_str(), dt, rho[1], noise, ef.tc, ef.lags, ef.r2);
+    c.evidence = buf;
+    const double t0 = in.tau0;
+    c.make = termMaker("gauss_markov", [t0](double tc, double tau) { return gaussMarkovAvar(tau, tc, t0); });
+    c.p0 = ef.tc;
+    c.p_lo = std::max(in.tau0 / 4, ef.tc / 6);
+    c.p_hi = std::min(in.T / 20, ef.tc * 6);  // >= 20 correlation times in the record to tell it from K
+    if (!(c.p_hi > c.p_lo)) continue;
+    c.n_nonlinear = 1;
+    c.nonlinear_name = "tau_c_s";
+    c.amplitude_name = "sigma";
+    cands->push_back(c);
+  }
+}
+
+// Bias step candidate: block-mean differences at the averaging time of the curve's minimum.
+void addBiasStepCandidate(const CheckInput& in, std::vector<Candidate>* cands) {
+  const int64_t n = in.n;
+  const double tau0 = in.tau0, T = in.T;
+  const std::vector<double>& rate = in.rate;
+  double tau_min = in.curve.points.front().tau, dev_min = std::numeric_limits<double>::infinity();
+  for (const auto& p : in.curve.points)
+    if (p.var > 0 && p.var < dev_min) {
+      dev_min = p.var;
+      tau_min = p.tau;
+    }
+  std::vector<int64_t> blocks;
+  blocks.push_back(std::clamp<int64_t>(static_cast<int64_t>(tau_min / tau0), std::max<int64_t>(1, n / 1000),
+                                       std::max<int64_t>(1, n / 50)));
+  blocks.push_back(std::max<int64_t>(1, n / 200));
+  MeanShift best;
+  int64_t best_block = 0;
+  for (int64_t b : blocks) {
+    const MeanShift s = detectMeanShift(rate, b, in.opts.step_min_z);
+    if (s.found && s.z > best.z) {
+      best = s;
+      best_block = b;
+    }
+  }
+  if (!best.found) return;
+  // Location uncertainty of a step in white noise: about (sigma_sample / size)^2 samples.
+  std::vector<double> d(std::min<int64_t>(n - 1, 200000));
+  for (size_t i = 0; i < d.size(); ++i) d[i] = std::fabs(rate[i + 1] - rate[i]);
+  const double s_sample = upperMedianInPlace(d) / 0.6745 / std::sqrt(2.0);
+  const double ts = best.index * tau0;
+  const double ts_sigma = tau0 * std::max(1.0, (s_sample / best.size) * (s_sample / best.size));
+  Candidate c;
+  c.type = "bias_step";
+  c.localized = true;
+  char buf[256];
+  std::snprintf(buf, sizeof buf,
+                "difference of %.3g s block means %.1f robust sigmas at t = %.4g s; least-squares step %.3g",
+                best_block * tau0, best.z, ts, best.size);
+  c.evidence = buf;
+  c.make = termMaker("bias_step", [ts, T](double, double tau) { return biasStepAvar(tau, ts, T); });
+  c.fixed["time_s"] = {ts, ts_sigma};
+  c.n_nonlinear = 1;
+  c.amplitude_name = "size";
+  c.amplitude_sign = best.size >= 0 ? 1.0 : -1.0;
+  cands->push_back(c);
+}
+
+// A tabulated AVAR (tau, value) at tau: log-log interpolated between entries (linear where a value is not
+// positive), held constant beyond the ends.
+double tabulatedAvar(const std::vector<std::pair<double, double>>& t, double tau) {
+  if (t.empty()) return 0.0;
+  if (tau <= t.front().first) return t.front().second;
+  if (tau >= t.back().first) return t.back().second;
+  for (size_t i = 1; i < t.size(); ++i)
+    if (tau <= t[i].first) {
+      const double a = t[i - 1].second, bv = t[i].second;
+      if (!(a > 0) || !(bv > 0)) return a + (bv - a) * (tau - t[i - 1].first) / (t[i].first - t[i - 1].first);
+      const double w = std::log(tau / t[i - 1].first) / std::log(t[i].first / t[i - 1].first);
+      return std::exp(std::log(a) + w * (std::log(bv) - std::log(a)));
+    }
+  return t.back().second;
+}
+
+// Thermal drift candidate from the regression of the rate's block means rb (b samples each) on the temperature's.
+void addTemperatureCandidate(const CheckInput& in, int64_t b, const std::vector<double>& rb,
+                             std::vector<Candidate>* cands) {
+  const double tau0 = in.tau0;
+  const std::vector<double> tb = blockMeans(*in.temperature, b);
+  bool varies = false;
+  for (double v : tb) varies = varies || std::fabs(v - tb.front()) > 0;
+  if (!varies) return;
+  const LinearRegression lr = linearRegression(tb, rb);
+  const double z = lr.slope_sigma > 0 ? std::fabs(lr.slope) / lr.slope_sigma : 0.0;
+  if (z < in.opts.thermal_min_z) return;
+  // Empirical basis: the AVAR of the temperature series itself, at the curve's factors (log-log interpolated
+  // elsewhere); c = (rate per degC)^2.
+  auto tab = std::make_shared<std::vector<std::pair<double, double>>>();
+  for (const auto& p : in.curve.points) {
+    const int64_t m = std::max<int64_t>(1, p.m > 0 ? p.m : static_cast<int64_t>(std::llround(p.tau / tau0)));
+    tab->push_back({p.tau, overlappingAvarAt(*in.temperature, m)});
+  }
+  Candidate c;
+  c.type = "thermal_drift";
+  char buf[256];
+  std::snprintf(buf, sizeof buf, "rate vs temperature over %.3g s blocks: slope %.3g +- %.2g (rad/s)/degC, r = %.2f",
+                b * tau0, lr.slope, lr.slope_sigma, lr.r);
+  c.evidence = buf;
+  c.make = termMaker("thermal_drift", [tab](double, double tau) { return tabulatedAvar(*tab, tau); });
+  c.amplitude_name = "coefficient_per_degc";
+  c.amplitude_sign = lr.slope >= 0 ? 1.0 : -1.0;
+  cands->push_back(c);
+}
+
+// Lag-1 correlation of the block means rb (b samples each) left after the warm-up fit wf.
+double warmupResidualRho1(const std::vector<double>& rb, const WarmupFit& wf, int64_t b, double tau0) {
+  std::vector<double> res(rb.size());
+  double mean = 0;
+  for (size_t i = 0; i < rb.size(); ++i) {
+    res[i] = rb[i] - wf.a * -std::expm1(-(i + 0.5) * b * tau0 / wf.theta);
+    mean += res[i];
+  }
+  mean /= res.size();
+  double c0 = 0, c1 = 0;
+  for (size_t i = 0; i < res.size(); ++i) {
+    c0 += (res[i] - mean) * (res[i] - mean);
+    if (i + 1 < res.size()) c1 += (res[i] - mean) * (res[i + 1] - mean);
+  }
+  return c0 > 0 ? c1 / c0 : 1.0;
+}
+
+// Warm-up candidate (no temperature given): an exponential a (1 - exp(-t/theta)) fitted to the block means rb.
+void addWarmupCandidate(const CheckInput& in, int64_t b, const std::vector<double>& rb, std::vector<Candidate>* cands) {
+  const double tau0 = in.tau0, T = in.T;
+  // theta <= T/3: a warm-up that does not settle within the record cannot be told from a ramp or a random walk.
+  const WarmupFit wf = fitWarmup(rb, b * tau0, T / 200, T / 3);
+  // White-noise sigma of the block means from their first differences: a random walk or flicker makes the fit's
+  // own a_sigma optimistic, so the evidence threshold is high and the BIC decides.
+  // A random walk of the bias also looks like a warm-up over one record: require the block means left after
+  // the warm-up to be little correlated (lag-1 < 0.5), as they are for white/flicker noise but not for a walk.
+  double resid_rho1 = 1.0;
+  if (wf.ok) resid_rho1 = warmupResidualRho1(rb, wf, b, tau0);
+  if (!(wf.ok && wf.a_sigma > 0 && std::fabs(wf.a) / wf.a_sigma >= in.opts.warmup_min_z && resid_rho1 < 0.5)) return;
+  Candidate c;
+  c.type = "warmup";
+  c.localized = true;
+  char buf[256];
+  std::snprintf(buf, sizeof buf,
+                "%.3g s block means follow a (1 - exp(-t/theta)): a = %.3g +- %.2g, theta = %.3g s, residual "
+                "lag-1 correlation %.2f",
+                b * tau0, wf.a, wf.a_sigma, wf.theta, resid_rho1);
+  c.evidence = buf;
+  c.make = termMaker("warmup", [T](double theta, double tau) { return warmupAvar(tau, theta, T); });
+  c.p0 = wf.theta;
+  c.p_lo = wf.theta / 4;
+  c.p_hi = std::min(wf.theta * 4, T / 3);
+  c.n_nonlinear = 1;
+  c.nonlinear_name = "theta_s";
+  c.amplitude_name = "amplitude";
+  c.amplitude_sign = wf.a >= 0 ? 1.0 : -1.0;
+  cands->push_back(c);
+}
+
+// Thermal drift candidates: regression on temperature when given, otherwise a warm-up exponential.
+void addThermalCandidates(const CheckInput& in, std::vector<Candidate>* cands) {
+  const int64_t b = std::max<int64_t>(1, in.n / 200);
+  const std::vector<double> rb = blockMeans(in.rate, b);
+  if (in.temperature && rb.size() >= 8)
+    addTemperatureCandidate(in, b, rb, cands);
+  else if (rb.size() >= 16)
+    addWarmupCandidate(in, b, rb, cands);
+}
+
+// Impulsive outliers (shocks) candidate.
+void addOutlierCandidate(const CheckInput& in, std::vector<Candidate>* cands) {
+  const double tau0 = in.tau0, T = in.T;
+  const Outliers o = detectOutliers(in.rate, tau0, in.opts.outlier_min_z);
+  if (o.index.empty() || static_cast<int64_t>(o.index.size()) * 1000 >= in.n) return;
+  Candidate c;
+  c.type = "outliers";
+  c.localized = true;
+  char buf[256];
+  std::snprintf(buf, sizeof buf, "%zu samples beyond %.0f robust sigmas (%.3g) of their local median, first at t = %.4g s",
+                o.index.size(), in.opts.outlier_min_z, o.robust_sigma, o.index.front() * tau0);
+  c.evidence = buf;
+  c.make = termMaker("outliers", [T](double, double tau) { return impulseAvar(tau, T); });
+  c.fixed["count"] = {static_cast<double>(o.index.size()), 0.0};
+  c.amplitude_name = "rss_area";
+  cands->push_back(c);
+}
+
+// Every candidate effect the raw samples give evidence for, in the order the searches are enabled.
+std::vector<Candidate> collectCandidates(const CheckInput& in) {
+  std::vector<Candidate> cands;
+  if (in.opts.search_sinusoid && in.n >= 256) addSpectralCandidates(in, &cands);
+  if (in.opts.search_gauss_markov) addGaussMarkovCandidates(in, &cands);
+  if (in.opts.search_bias_step) addBiasStepCandidate(in, &cands);
+  if (in.opts.search_thermal) addThermalCandidates(in, &cands);
+  if (in.opts.search_outliers) addOutlierCandidate(in, &cands);
+  return cands;
+}
+
+// The current model with candidate c's term at nonlinear parameter p added, refitted.
+Trial evaluateCandidate(const CheckInput& in, const Model& current, const Candidate& c, double p) {
+  Trial t;
+  t.p = p;
+  t.term = c.make(p);
+  std::vector<ExtraTerm> ex = current.extra;
+  std::vector<TermInfo> info = current.info;
+  ex.push_back(t.term);
+  TermInfo ti;
+  ti.nature = c.nature;
+  ti.tc = p;
+  ti.localized = c.localized ? in.T : 0.0;
+  info.push_back(ti);
+  // Only a deterministic effect may stand in for K and R (a stochastic one would just trade places with them).
+  t.model = fitModel(in.curve, current, in.opts.fit, ex, info, current.n_nonlinear + c.n_nonlinear,
+                     c.nature == Nature::Deterministic);
+  return t;
+}
+
+// Best trial of a candidate with a search range: log grid, then golden-section refinement between the best point's
+// neighbours, and the parameter's sigma; model.ok false when no grid point fits.
+Trial searchCandidate(const CheckInput& in, const Model& current, const Candidate& c) {
+  const int ng = 21;
+  std::vector<double> grid(ng);
+  std::vector<Trial> trials(ng);
+  int bi = -1;
+  for (int g = 0; g < ng; ++g) {
+    grid[g] = c.p_lo * std::pow(c.p_hi / c.p_lo, static_cast<double>(g) / (ng - 1));
+    trials[g] = evaluateCandidate(in, current, c, grid[g]);
+    if (trials[g].model.ok && (bi < 0 || trials[g].model.bic < trials[bi].model.bic)) bi = g;
+  }
+  if (bi < 0) return Trial{};
+  double a = std::log(grid[std::max(0, bi - 1)]), b = std::log(grid[std::min(ng - 1, bi + 1)]);
+  Trial bt = trials[bi];
+  const double gr = 0.5 * (std::sqrt(5.0) - 1.0);
+  double x1 = b - gr * (b - a), x2 = a + gr * (b - a);
+  Trial t1 = evaluateCandidate(in, current, c, std::exp(x1)), t2 = evaluateCandidate(in, current, c, std::exp(x2));
+  for (int it = 0; it < 12; ++it) {
+    if (t1.model.bic < t2.model.bic) {
+      b = x2;
+      x2 = x1;
+      t2 = t1;
+      x1 = b - gr * (b - a);
+      t1 = evaluateCandidate(in, current, c, std::exp(x1));
+    } else {
+      a = x1;
+      x1 = x2;
+      t1 = t2;
+      x2 = a + gr * (b - a);
+      t2 = evaluateCandidate(in, current, c, std::exp(x2));
+    }
+  }
+  const Trial& tb = t1.model.bic < t2.model.bic ? t1 : t2;
+  if (tb.model.ok && tb.model.bic < bt.model.bic) bt = tb;
+  // Sigma of the parameter from the curvature of -2 ln L (= BIC up to a constant) in ln p, inflated by the
+  // reduced chi2 when it exceeds 1.
+  const double h = 0.05;
+  const Trial tm = evaluateCandidate(in, current, c, bt.p * std::exp(-h));
+  const Trial tp = evaluateCandidate(in, current, c, bt.p * std::exp(h));
+  const double curv = (tm.model.bic + tp.model.bic - 2 * bt.model.bic) / (h * h);
+  const double infl = std::max(1.0, bt.model.fit.chi2_dof);
+  bt.p_sigma = (curv > 0 && tm.model.ok && tp.model.ok) ? bt.p * std::sqrt(2.0 / curv * infl) : bt.p;
+  return bt;
+}
+
+// Significance of extra term e of a fit: sqrt(c) over its sigma.
+double amplitudeZ(const FitResult& f, size_t e) {
+  if (e >= f.extra.size() || e >= f.extra_c.size() || !(f.extra_c[e] > 0)) return 0.0;
+  const Coefficient& co = f.extra[e];
+  return co.sigma > 0 ? co.value / co.sigma : std::numeric_limits<double>::infinity();
+}
+
+// State of the effect selection: the current joint model and the kept effects, parallel to current.extra (the
+// report and the candidate each came from).
+struct Selection {
+  Model current;
+  std::vector<DetectedEffect> kept;
+  std::vector<size_t> kept_cand;
+};
+
+// A candidate's best trial against the current model.
+struct Scored {
+  size_t ci;
+  Trial trial;
+};
+
+// Best trial of every candidate not yet used; one the refit gives zero amplitude is rejected.
+std::vector<Scored> scoreCandidates(const CheckInput& in, const Model& current, std::vector<Candidate>* cands,
+                                    ModelCheck* mc) {
+  std::vector<Scored> scored;
+  for (size_t ci = 0; ci < cands->size(); ++ci) {
+    Candidate& c = (*cands)[ci];
+    if (c.used) continue;
+    const Trial bt = c.p_hi > c.p_lo ? searchCandidate(in, current, c) : evaluateCandidate(in, current, c, c.p0);
+    if (!bt.model.ok) continue;
+    // The effect must be present in the refit (NNLS may put it at zero).
+    const double cval = bt.model.fit.extra_c.empty() ? 0.0 : bt.model.fit.extra_c.back();
+    if (!(cval > 0)) {
+      c.used = true;
+      mc->rejected.push_back(c.type + ": the refit gives it zero amplitude (" + c.evidence + ")");
       continue;
     }
-    const double rms_all = rmsLog10(curve, current.fit.model_var, rms_mask);
-    size_t cheapest = kept.size();
-    double best_rest_rms = std::numeric_limits<double>::infinity();
-    Model best_rest;
-    for (size_t e = 0; e < kept.size(); ++e) {
-      Model rest;
-      if (!without(e, &rest)) continue;
-      const double r = rmsLog10(curve, rest.fit.model_var, rms_mask);
-      if (cheapest == kept.size() || r < best_rest_rms) {
-        cheapest = e;
-        best_rest_rms = r;
-        best_rest = rest;
-      }
-    }
-    if (cheapest == kept.size()) break;  // no refit without any of them: the final guard decides
-    if (std::isfinite(rms_all) && rms_all < best_rest_rms * (1.0 - min_gain)) break;  // each one earns its place
-    const double rel = best_rest_rms > 0 ? (best_rest_rms - rms_all) / best_rest_rms : 0.0;
-    mc.rejected.push_back(kept[cheapest].type + ": BIC improves by " + fmt("%.1f", kept[cheapest].delta_bic) +
-                          " but the RMS log10 error goes " + fmt("%.4f", best_rest_rms) + " -> " + fmt("%.4f", rms_all) +
-                          " with it (" + fmt("%+.1f", -100 * rel) + " %, needs " + fmt("%.0f", -100 * min_gain) +
-                          " %" + (kept.size() > 1 ? ", with " + std::to_string(kept.size() - 1) + " other effect(s)" : "") +
-                          "; " + kept[cheapest].evidence + ")");
-    dropKept(cheapest, best_rest);
+    scored.push_back({ci, bt});
   }
-  // Final guard: the answer never describes the curve worse than the plain fit (by the same margin each effect
-  // needed).
-  if (!kept.empty()) {
-    const double rms_final = rmsLog10(curve, current.fit.model_var, rms_mask);
-    if (!std::isfinite(rms_final) || !(rms_final < mc.before.rms_log10 * (1.0 - min_gain))) {
-      std::string names;
-      for (const auto& e : kept) names += (names.empty() ? "" : ", ") + e.type;
-      mc.rejected.push_back("all effects (" + names + "): the joint refit's RMS log10 error " + fmt("%.4f", rms_final) +
-                            " is not " + fmt("%.0f", 100 * min_gain) + " % below the plain fit's " +
-                            fmt("%.4f", mc.before.rms_log10) + ": plain fit kept");
-      mc.message = "model check kept no effect: the joint refit did not lower the RMS log10 error";
-      kept.clear();
-      current = base;
+  return scored;
+}
+
+// One round of the forward selection: best BIC first, a candidate is added when it passes the BIC gate and is
+// significant (amplitude, nonlinear parameter); one that fails is rejected (with its numbers) and the next one is
+// examined; an added one ends the round (true). Whether it lowers the RMS error is judged on the final joint model
+// (pruneJointModel): effects that only work together (the ADIS16405 z gyro's narrowband feature and its filter
+// correlation each raise the error alone, 0.050 -> 0.083 and 0.075, and lower it together to 0.0065) must not be
+// cut one step at a time.
+bool admitBest(const CheckInput& in, const std::vector<bool>& rms_mask, std::vector<Scored> scored,
+               std::vector<Candidate>* cands, Selection* sel, ModelCheck* mc) {
+  const ModelCheckOptions& opts = in.opts;
+  std::stable_sort(scored.begin(), scored.end(),
+                   [](const Scored& x, const Scored& y) { return x.trial.model.bic < y.trial.model.bic; });
+  const double rms_now = rmsLog10(in.curve, sel->current.fit.model_var, rms_mask);  // for the rejection messages
+  for (const Scored& sc : scored) {
+    Candidate& c = (*cands)[sc.ci];
+    const Trial& best = sc.trial;
+    c.used = true;
+    const double gain = sel->current.bic - best.model.bic;
+    const bool stochastic = c.nature == Nature::GaussMarkov || c.nature == Nature::Narrowband;
+    const double margin = stochastic ? opts.bic_margin_stochastic : opts.bic_margin;
+    if (gain < margin) {
+      mc->rejected.push_back(c.type + ": BIC improves by only " + fmt("%.1f", gain) + " (< " + fmt("%.0f", margin) +
+                             "; " + c.evidence + ")");
+      continue;
+    }
+    const double rms_new = rmsLog10(in.curve, best.model.fit.model_var, rms_mask);
+    const double az = amplitudeZ(best.model.fit, best.model.fit.extra.size() - 1);
+    if (!(az >= opts.min_amplitude_z)) {
+      mc->rejected.push_back(c.type + ": " + c.amplitude_name + " " + fmt("%.3g", best.model.fit.extra.back().value) +
+                             " is " + fmt("%.1f", az) + " sigma (needs " + fmt("%.0f", opts.min_amplitude_z) +
+                             "; RMS log10 " + fmt("%.4f", rms_now) + " -> " + fmt("%.4f", rms_new) + "; " +
+                             c.evidence + ")");
+      continue;
+    }
+    if (!c.nonlinear_name.empty() && !(best.p > 0 && best.p_sigma <= opts.max_nonlinear_rel_sigma * best.p)) {
+      mc->rejected.push_back(c.type + ": " + c.nonlinear_name + " " + fmt("%.3g", best.p) + " +- " +
+                             fmt("%.2g", best.p_sigma) + " (" + fmt("%.0f", 100 * best.p_sigma / best.p) +
+                             " %, needs <= " + fmt("%.0f", 100 * opts.max_nonlinear_rel_sigma) + " %; " +
+                             c.evidence + ")");
+      continue;
+    }
+    DetectedEffect eff;
+    eff.type = c.type;
+    eff.evidence = c.evidence;
+    eff.delta_bic = gain;
+    eff.term = best.term;
+    eff.parameters = c.fixed;
+    if (!c.nonlinear_name.empty()) eff.parameters[c.nonlinear_name] = {best.p, best.p_sigma};
+    eff.parameters[c.amplitude_name] = {c.amplitude_sign, 0.0};  // filled below from the joint refit
+    sel->kept.push_back(eff);
+    sel->kept_cand.push_back(sc.ci);
+    sel->current = best.model;
+    return true;
+  }
+  return false;
+}
+
+// Greedy forward selection with the BIC, at most max_effects rounds; candidates never examined are reported.
+void forwardSelect(const CheckInput& in, const std::vector<bool>& rms_mask, std::vector<Candidate>* cands,
+                   Selection* sel, ModelCheck* mc) {
+  for (int round = 0; round < in.opts.max_effects; ++round) {
+    std::vector<Scored> scored = scoreCandidates(in, sel->current, cands, mc);
+    if (scored.empty()) break;
+    if (!admitBest(in, rms_mask, std::move(scored), cands, sel, mc)) break;
+  }
+  for (const auto& c : *cands)
+    if (!c.used) mc->rejected.push_back(c.type + ": not examined (effect limit reached; " + c.evidence + ")");
+}
+
+// The joint model refitted without kept effect `drop` (without the only effect: the plain fit); false when that
+// refit fails.
+bool refitWithout(const CheckInput& in, const Model& base, const std::vector<Candidate>& cands, const Selection& sel,
+                  size_t drop, Model* out) {
+  const Model& current = sel.current;
+  std::vector<ExtraTerm> ex;
+  std::vector<TermInfo> info;
+  int nn = 0;
+  bool deterministic = false;
+  for (size_t e = 0; e < current.extra.size(); ++e) {
+    if (e == drop) continue;
+    ex.push_back(current.extra[e]);
+    info.push_back(current.info[e]);
+    deterministic = deterministic || current.info[e].nature == Nature::Deterministic;
+    nn += cands[sel.kept_cand[e]].n_nonlinear;
+  }
+  if (ex.empty()) {
+    *out = base;
+    return true;
+  }
+  *out = fitModel(in.curve, base, in.opts.fit, ex, info, nn, deterministic);
+  return out->ok;
+}
+
+// Removes kept effect e; `rest`, the joint model without it, becomes the current model.
+void dropKept(Selection* sel, size_t e, const Model& rest) {
+  sel->kept.erase(sel->kept.begin() + static_cast<std::ptrdiff_t>(e));
+  sel->kept_cand.erase(sel->kept_cand.begin() + static_cast<std::ptrdiff_t>(e));
+  sel->current = rest;
+}
+
+// What one pruning step did.
+enum class Pruned { Nothing, Dropped, Failed };
+
+// Significance in the joint refit: drops the least significant kept effect below min_amplitude_z (another effect
+// took its place); Failed (plain fit kept) when the refit without it fails.
+Pruned dropInsignificant(const CheckInput& in, const Model& base, const std::vector<Candidate>& cands, Selection* sel,
+                         ModelCheck* mc) {
+  const ModelCheckOptions& opts = in.opts;
+  std::vector<DetectedEffect>& kept = sel->kept;
+  size_t worst = kept.size();
+  double worst_z = opts.min_amplitude_z;
+  for (size_t e = 0; e < kept.size(); ++e) {
+    const double z = amplitudeZ(sel->current.fit, e);
+    if (!(z >= worst_z)) {
+      worst_z = z;
+      worst = e;
     }
   }
-  mc.effects = kept;
-  // Amplitudes from the final joint refit (signs from the evidence).
-  for (size_t e = 0; e < mc.effects.size() && e < current.fit.extra.size(); ++e) {
-    for (auto& kv : mc.effects[e].parameters) {
+  if (worst >= kept.size()) return Pruned::Nothing;
+  Model rest;
+  const bool ok = refitWithout(in, base, cands, *sel, worst, &rest);
+  const FitResult& cf = sel->current.fit;
+  mc->rejected.push_back(kept[worst].type + ": dropped in the joint refit with " + std::to_string(kept.size() - 1) +
+                         " other effect(s): amplitude " +
+                         fmt("%.3g", worst < cf.extra.size() ? cf.extra[worst].value : 0.0) + " is " +
+                         fmt("%.1f", worst_z) + " sigma (needs " + fmt("%.0f", opts.min_amplitude_z) + "; " +
+                         kept[worst].evidence + ")");
+  if (!ok) {
+    mc->rejected.push_back("joint refit without the dropped effect failed: plain fit kept");
+    kept.clear();
+    sel->kept_cand.clear();
+    sel->current = base;
+    return Pruned::Failed;
+  }
+  dropKept(sel, worst, rest);
+  return Pruned::Dropped;
+}
+
+// RMS error: the joint model must describe the curve better than the same model refitted without any one effect
+// by min_rms_gain; otherwise the effect whose removal costs least is dropped (true).
+bool dropCheapest(const CheckInput& in, const Model& base, const std::vector<Candidate>& cands,
+                  const std::vector<bool>& rms_mask, Selection* sel, ModelCheck* mc) {
+  const double min_gain = in.opts.min_rms_gain;  // negative: the gate is off (studies only)
+  std::vector<DetectedEffect>& kept = sel->kept;
+  const double rms_all = rmsLog10(in.curve, sel->current.fit.model_var, rms_mask);
+  size_t cheapest = kept.size();
+  double best_rest_rms = std::numeric_limits<double>::infinity();
+  Model best_rest;
+  for (size_t e = 0; e < kept.size(); ++e) {
+    Model rest;
+    if (!refitWithout(in, base, cands, *sel, e, &rest)) continue;
+    const double r = rmsLog10(in.curve, rest.fit.model_var, rms_mask);
+    if (cheapest == kept.size() || r < best_rest_rms) {
+      cheapest = e;
+      best_rest_rms = r;
+      best_rest = rest;
+    }
+  }
+  if (cheapest == kept.size()) return false;  // no refit without any of them: the final guard decides
+  if (std::isfinite(rms_all) && rms_all < best_rest_rms * (1.0 - min_gain)) return false;  // each one earns its place
+  const double rel = best_rest_rms > 0 ? (best_rest_rms - rms_all) / best_rest_rms : 0.0;
+  mc->rejected.push_back(kept[cheapest].type + ": BIC improves by " + fmt("%.1f", kept[cheapest].delta_bic) +
+                         " but the RMS log10 error goes " + fmt("%.4f", best_rest_rms) + " -> " + fmt("%.4f", rms_all) +
+                         " with it (" + fmt("%+.1f", -100 * rel) + " %, needs " + fmt("%.0f", -100 * min_gain) + " %" +
+                         (kept.size() > 1 ? ", with " + std::to_string(kept.size() - 1) + " other effect(s)" : "") +
+                         "; " + kept[cheapest].evidence + ")");
+  dropKept(sel, cheapest, best_rest);
+  return true;
+}
+
+// Every kept effect again in the final joint model, until nothing changes:
+//  - significance: one whose amplitude went to zero or below min_amplitude_z in the joint refit (another effect
+//    took its place) is dropped, the least significant first;
+//  - RMS error: the joint model must describe the curve better than the same model refitted without that effect
+//    by min_rms_gain (without the only effect: the plain fit); otherwise the effect whose removal costs least is
+//    dropped (a BIC gain with an RMS error that does not fall is a traded weight: a flicker wiggle taken for a
+//    Gauss-Markov bump, a stretch of rate random walk taken for a warm-up, a bias step that K already describes).
+void pruneJointModel(const CheckInput& in, const Model& base, const std::vector<Candidate>& cands,
+                     const std::vector<bool>& rms_mask, Selection* sel, ModelCheck* mc) {
+  while (!sel->kept.empty()) {
+    const Pruned p = dropInsignificant(in, base, cands, sel, mc);
+    if (p == Pruned::Failed) break;
+    if (p == Pruned::Dropped) continue;
+    if (!dropCheapest(in, base, cands, rms_mask, sel, mc)) break;
+  }
+}
+
+// Final guard: the answer never describes the curve worse than the plain fit (by the same margin each effect
+// needed).
+void finalGuard(const CheckInput& in, const Model& base, const std::vector<bool>& rms_mask, Selection* sel,
+                ModelCheck* mc) {
+  if (sel->kept.empty()) return;
+  const double min_gain = in.opts.min_rms_gain;
+  const double rms_final = rmsLog10(in.curve, sel->current.fit.model_var, rms_mask);
+  if (std::isfinite(rms_final) && rms_final < mc->before.rms_log10 * (1.0 - min_gain)) return;
+  std::string names;
+  for (const auto& e : sel->kept) names += (names.empty() ? "" : ", ") + e.type;
+  mc->rejected.push_back("all effects (" + names + "): the joint refit's RMS log10 error " + fmt("%.4f", rms_final) +
+                         " is not " + fmt("%.0f", 100 * min_gain) + " % below the plain fit's " +
+                         fmt("%.4f", mc->before.rms_log10) + ": plain fit kept");
+  mc->message = "model check kept no effect: the joint refit did not lower the RMS log10 error";
+  sel->kept.clear();
+  sel->current = base;
+}
+
+// The final joint model's figures in the report: the effects with their amplitudes from the joint refit (signs
+// from the evidence), mc.after, its fit and residual.
+void recordAfter(const CheckInput& in, const std::vector<bool>& rms_mask, const Selection& sel, ModelCheck* mc) {
+  const Model& current = sel.current;
+  mc->effects = sel.kept;
+  for (size_t e = 0; e < mc->effects.size() && e < current.fit.extra.size(); ++e) {
+    for (auto& kv : mc->effects[e].parameters) {
       const std::string& k = kv.first;
       if (k == "amplitude" || k == "sigma" || k == "size" || k == "coefficient_per_degc" || k == "rss_area" ||
           k == "sqrt_m1") {
@@ -1262,15 +1379,42 @@ ModelCheck checkModel(const std::vector<double>& rate, double tau0, const Deviat
       }
     }
   }
+  mc->fit_after = current.fit;
+  mc->extra = current.extra;
+  mc->model_var_after = current.fit.model_var;
+  mc->after.rms_log10 = rmsLog10(in.curve, current.fit.model_var, rms_mask);
+  mc->after.chi2_dof = current.fit.chi2_dof;
+  mc->after.bic = current.bic;
+  mc->after.n_params = countParams(current.fit) + current.n_nonlinear;
+  mc->residual_after = analyzeResidual(current.weighted, current.fit, current.extra, in.opts.structured_alpha);
+}
 
-  mc.fit_after = current.fit;
-  mc.extra = current.extra;
-  mc.model_var_after = current.fit.model_var;
-  mc.after.rms_log10 = rmsLog10(curve, current.fit.model_var, rms_mask);
-  mc.after.chi2_dof = current.fit.chi2_dof;
-  mc.after.bic = current.bic;
-  mc.after.n_params = countParams(current.fit) + current.n_nonlinear;
-  mc.residual_after = analyzeResidual(current.weighted, current.fit, current.extra, opts.structured_alpha);
+}  // namespace
+
+ModelCheck checkModel(const std::vector<double>& rate, double tau0, const DeviationCurve& curve, const FitResult& fit,
+                      const ModelCheckOptions& opts, const std::vector<double>* temperature) {
+  validateInputs(rate, tau0, curve, fit, temperature);
+  ModelCheck mc;
+  mc.fit_before = fit;
+  for (const auto& p : curve.points) {
+    mc.tau.push_back(p.tau);
+    mc.measured_var.push_back(p.var);
+  }
+  if (!fit.ok) return unchecked(mc, fit, "base fit failed: " + fit.message);
+  const int64_t n = static_cast<int64_t>(rate.size());
+  const CheckInput in{rate, tau0, curve, opts, temperature, n, n * tau0, 1.0 / tau0};
+  const Model base = refitBase(in, fit);
+  if (!base.ok) return unchecked(mc, fit, "base refit failed: " + base.fit.message);
+  const std::vector<bool> rms_mask = rmsMask(in, base);
+  recordBefore(in, base, rms_mask, &mc);
+
+  std::vector<Candidate> cands = collectCandidates(in);
+  Selection sel;
+  sel.current = base;
+  forwardSelect(in, rms_mask, &cands, &sel, &mc);
+  pruneJointModel(in, base, cands, rms_mask, &sel, &mc);
+  finalGuard(in, base, rms_mask, &sel, &mc);
+  recordAfter(in, rms_mask, sel, &mc);
   mc.ok = true;
   return mc;
 }

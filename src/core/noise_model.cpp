@@ -169,60 +169,78 @@ FitResult fitNoiseModel(const DeviationCurve& curve, const FitOptions& options, 
 }
 
 namespace {
-/// EDF-weighted relative least squares (FitWeighting::Edf, and curves the GLS does not apply to).
-FitResult fitNoiseModelEdf(const DeviationCurve& curve, const FitOptions& options, const std::vector<ExtraTerm>& extra) {
-  FitResult r;
-  const size_t np = curve.points.size();
-  r.tau.resize(np);
-  r.model_var.assign(np, 0.0);
-  r.used.assign(np, false);
-  r.extra.assign(extra.size(), Coefficient{});
-  r.extra_c.assign(extra.size(), 0.0);
 
-  // Points and their EDF (edf <= 0: the non-overlapping count N/m - 1 as a conservative stand-in).
-  std::vector<int> pts;
-  std::vector<double> edf(np, 0.0);
+// ---- fitNoiseModelEdf, stage by stage ---------------------------------------------------------------------------
+
+// Points to fit and every point's EDF (edf <= 0: the non-overlapping count N/m - 1 as a conservative stand-in);
+// fills r->tau and r->used.
+void selectPoints(const DeviationCurve& curve, const FitOptions& options, FitResult* r, std::vector<int>* pts,
+                  std::vector<double>* edf) {
+  const size_t np = curve.points.size();
+  edf->assign(np, 0.0);
   for (size_t i = 0; i < np; ++i) {
     const auto& p = curve.points[i];
-    r.tau[i] = p.tau;
+    r->tau[i] = p.tau;
     double e = p.edf;
     if (!(e > 0) && p.m > 0) e = static_cast<double>(curve.n_phase) / static_cast<double>(p.m) - 1.0;
-    edf[i] = e;
+    (*edf)[i] = e;
     if (p.tau > 0 && std::isfinite(p.var) && p.var > 0 && std::isfinite(e) && e >= options.min_edf) {
-      pts.push_back(static_cast<int>(i));
-      r.used[i] = true;
+      pts->push_back(static_cast<int>(i));
+      r->used[i] = true;
     }
   }
+}
+
+// The design's columns: the enabled IEEE terms, then the extra terms.
+std::vector<Column> fitColumns(const FitOptions& options, const std::vector<ExtraTerm>& extra) {
   std::vector<Column> all_cols;
   for (int t = 0; t < kNumTerms; ++t)
     if (options.enabled[static_cast<size_t>(t)]) all_cols.push_back({t, [t](double tau) { return noiseTermBasis(t, tau); }});
   for (size_t e = 0; e < extra.size(); ++e) all_cols.push_back({kNumTerms + static_cast<int>(e), extra[e].basis});
-  if (pts.size() < 2 || all_cols.empty()) {
-    r.message = "too few Allan-variance points to fit (" + std::to_string(pts.size()) + ")";
-    return r;
-  }
+  return all_cols;
+}
 
-  const int m = static_cast<int>(pts.size());
-  // Weights: AVAR estimates at nearby taus are strongly correlated (a 10-per-decade grid has ~3 points per octave
-  // that share most of their data). Treating them as independent overstates the information and understates the
-  // coefficient sigmas, so each point's EDF is divided by the number of fitted points within +-1/2 octave of it.
+// Weights: AVAR estimates at nearby taus are strongly correlated (a 10-per-decade grid has ~3 points per octave
+// that share most of their data). Treating them as independent overstates the information and understates the
+// coefficient sigmas, so each point's EDF is divided by the number of fitted points within +-1/2 octave of it.
+std::vector<double> decorrelatedEdf(const DeviationCurve& curve, const FitOptions& options,
+                                    const std::vector<int>& pts, const std::vector<double>& edf) {
   std::vector<double> wedf(edf);
-  if (options.decorrelate) {
-    for (int i : pts) {
-      int count = 0;
-      for (int j : pts) {
-        const double ratio = curve.points[static_cast<size_t>(j)].tau / curve.points[static_cast<size_t>(i)].tau;
-        if (ratio >= M_SQRT1_2 * (1 - 1e-12) && ratio < M_SQRT2 * (1 - 1e-12)) ++count;
-      }
-      wedf[static_cast<size_t>(i)] = edf[static_cast<size_t>(i)] / std::max(1, count);
+  if (!options.decorrelate) return wedf;
+  for (int i : pts) {
+    int count = 0;
+    for (int j : pts) {
+      const double ratio = curve.points[static_cast<size_t>(j)].tau / curve.points[static_cast<size_t>(i)].tau;
+      if (ratio >= M_SQRT1_2 * (1 - 1e-12) && ratio < M_SQRT2 * (1 - 1e-12)) ++count;
     }
+    wedf[static_cast<size_t>(i)] = edf[static_cast<size_t>(i)] / std::max(1, count);
   }
-  std::vector<bool> active(all_cols.size(), true);
-  Eigen::VectorXd c = Eigen::VectorXd::Zero(static_cast<int>(all_cols.size()));
-  std::vector<double> model(static_cast<size_t>(m));
-  for (int i = 0; i < m; ++i) model[static_cast<size_t>(i)] = curve.points[static_cast<size_t>(pts[static_cast<size_t>(i)])].var;
+  return wedf;
+}
 
-  auto design = [&](const std::vector<int>& cols, Eigen::MatrixXd* A, Eigen::VectorXd* b) {
+// The iterated, reweighted NNLS on the fitted points: columns, which are active, coefficients, and the model at the
+// points that sets the weights.
+struct EdfSolver {
+  const DeviationCurve& curve;
+  const FitOptions& options;
+  const std::vector<int>& pts;
+  const std::vector<double>& wedf;
+  const std::vector<Column>& all_cols;
+  int m;                       // fitted points
+  std::vector<bool> active;    // per column
+  Eigen::VectorXd c;           // coefficient per column
+  std::vector<double> model;   // model variance at the fitted points (starts at the measured one)
+
+  EdfSolver(const DeviationCurve& cv, const FitOptions& o, const std::vector<int>& p, const std::vector<double>& w,
+            const std::vector<Column>& cols)
+      : curve(cv), options(o), pts(p), wedf(w), all_cols(cols), m(static_cast<int>(p.size())),
+        active(cols.size(), true), c(Eigen::VectorXd::Zero(static_cast<int>(cols.size()))),
+        model(static_cast<size_t>(m)) {
+    for (int i = 0; i < m; ++i) model[static_cast<size_t>(i)] = curve.points[static_cast<size_t>(pts[static_cast<size_t>(i)])].var;
+  }
+
+  // Weighted design over the given columns.
+  void design(const std::vector<int>& cols, Eigen::MatrixXd* A, Eigen::VectorXd* b) const {
     A->resize(m, static_cast<int>(cols.size()));
     b->resize(m);
     for (int i = 0; i < m; ++i) {
@@ -231,23 +249,25 @@ FitResult fitNoiseModelEdf(const DeviationCurve& curve, const FitOptions& option
       for (size_t k = 0; k < cols.size(); ++k) (*A)(i, static_cast<int>(k)) = s * all_cols[static_cast<size_t>(cols[k])].basis(p.tau);
       (*b)[i] = s * p.var;
     }
-  };
+  }
   // Design with unit-norm columns (the basis functions span ~12 decades over the taus); scale holds the norms.
-  auto scaledDesign = [&](const std::vector<int>& cols, Eigen::MatrixXd* A, Eigen::VectorXd* b, Eigen::VectorXd* scale) {
+  void scaledDesign(const std::vector<int>& cols, Eigen::MatrixXd* A, Eigen::VectorXd* b, Eigen::VectorXd* scale) const {
     design(cols, A, b);
     scale->resize(A->cols());
     for (int k = 0; k < A->cols(); ++k) {
       (*scale)[k] = A->col(k).norm();
       if ((*scale)[k] > 0) A->col(k) /= (*scale)[k];
     }
-  };
-  auto activeCols = [&]() {
+  }
+  // Indices of the active columns.
+  std::vector<int> activeCols() const {
     std::vector<int> cols;
     for (size_t k = 0; k < all_cols.size(); ++k)
       if (active[k]) cols.push_back(static_cast<int>(k));
     return cols;
-  };
-  auto updateModel = [&]() {
+  }
+  // Model at the fitted points from the current coefficients (kept where it is not positive).
+  void updateModel() {
     for (int i = 0; i < m; ++i) {
       const double tau = curve.points[static_cast<size_t>(pts[static_cast<size_t>(i)])].tau;
       double v = 0;
@@ -255,8 +275,9 @@ FitResult fitNoiseModelEdf(const DeviationCurve& curve, const FitOptions& option
         if (c[static_cast<int>(k)] > 0) v += c[static_cast<int>(k)] * all_cols[k].basis(tau);
       if (v > 0) model[static_cast<size_t>(i)] = v;
     }
-  };
-  auto solveIrls = [&]() {
+  }
+  // NNLS on the active columns, reweighted by the model, options.iterations times.
+  void solveIrls() {
     for (int it = 0; it < std::max(1, options.iterations); ++it) {
       const std::vector<int> cols = activeCols();
       Eigen::MatrixXd A;
@@ -268,9 +289,9 @@ FitResult fitNoiseModelEdf(const DeviationCurve& curve, const FitOptions& option
         c[cols[k]] = scale[static_cast<int>(k)] > 0 ? x[static_cast<int>(k)] / scale[static_cast<int>(k)] : 0.0;
       updateModel();
     }
-  };
+  }
   // Covariance of c over the given columns at the current weights (inverse Fisher information).
-  auto covariance = [&](const std::vector<int>& cols, Eigen::MatrixXd* cov) {
+  void covariance(const std::vector<int>& cols, Eigen::MatrixXd* cov) const {
     Eigen::MatrixXd A;
     Eigen::VectorXd b, scale;
     scaledDesign(cols, &A, &b, &scale);
@@ -282,112 +303,168 @@ FitResult fitNoiseModelEdf(const DeviationCurve& curve, const FitOptions& option
         const double si = scale[i], sj = scale[j];
         (*cov)(i, j) = (si > 0 && sj > 0) ? Finv(i, j) / (si * sj) : 0.0;
       }
-  };
-
-  solveIrls();
-  std::vector<int> eliminated;  // IEEE terms dropped for insignificance: they still count in the covariance
-  // Backward elimination: drop the least significant IEEE term while any is below kSignificance sigma, then refit.
-  for (size_t round = 0; round < all_cols.size(); ++round) {
-    std::vector<int> pos;
-    for (size_t k = 0; k < all_cols.size(); ++k) {
-      if (!active[k]) continue;
-      if (c[static_cast<int>(k)] > 0) pos.push_back(static_cast<int>(k));
-      else if (all_cols[k].term < kNumTerms) active[k] = false;  // NNLS put it at the bound
-    }
-    if (pos.empty()) break;
-    Eigen::MatrixXd cov;
-    covariance(pos, &cov);
-    int worst = -1;
-    double worst_z = options.significance;
-    for (size_t k = 0; k < pos.size(); ++k) {
-      if (all_cols[static_cast<size_t>(pos[k])].term >= kNumTerms) continue;  // extra terms are the caller's to judge
-      const double sd = std::sqrt(std::max(0.0, cov(static_cast<int>(k), static_cast<int>(k))));
-      const double z = sd > 0 ? c[pos[k]] / sd : std::numeric_limits<double>::infinity();
-      if (z < worst_z) {
-        worst_z = z;
-        worst = pos[k];
-      }
-    }
-    if (worst < 0) break;
-    active[static_cast<size_t>(worst)] = false;
-    eliminated.push_back(worst);
-    c[worst] = 0;
-    solveIrls();
   }
+  // Backward elimination: drop the least significant IEEE term while any is below options.significance sigma, then
+  // refit. Returns the terms dropped for insignificance (they still count in the covariance).
+  std::vector<int> eliminate() {
+    std::vector<int> eliminated;
+    for (size_t round = 0; round < all_cols.size(); ++round) {
+      std::vector<int> pos;
+      for (size_t k = 0; k < all_cols.size(); ++k) {
+        if (!active[k]) continue;
+        if (c[static_cast<int>(k)] > 0) pos.push_back(static_cast<int>(k));
+        else if (all_cols[k].term < kNumTerms) active[k] = false;  // NNLS put it at the bound
+      }
+      if (pos.empty()) break;
+      Eigen::MatrixXd cov;
+      covariance(pos, &cov);
+      int worst = -1;
+      double worst_z = options.significance;
+      for (size_t k = 0; k < pos.size(); ++k) {
+        if (all_cols[static_cast<size_t>(pos[k])].term >= kNumTerms) continue;  // extra terms are the caller's to judge
+        const double sd = std::sqrt(std::max(0.0, cov(static_cast<int>(k), static_cast<int>(k))));
+        const double z = sd > 0 ? c[pos[k]] / sd : std::numeric_limits<double>::infinity();
+        if (z < worst_z) {
+          worst_z = z;
+          worst = pos[k];
+        }
+      }
+      if (worst < 0) break;
+      active[static_cast<size_t>(worst)] = false;
+      eliminated.push_back(worst);
+      c[worst] = 0;
+      solveIrls();
+    }
+    return eliminated;
+  }
+  // The supported columns: active with a positive coefficient.
+  std::vector<int> supportedCols() const {
+    std::vector<int> pos;
+    for (size_t k = 0; k < all_cols.size(); ++k)
+      if (active[k] && c[static_cast<int>(k)] > 0) pos.push_back(static_cast<int>(k));
+    return pos;
+  }
+};
 
-  // Final statistics.
-  std::vector<int> pos;
-  for (size_t k = 0; k < all_cols.size(); ++k)
-    if (active[k] && c[static_cast<int>(k)] > 0) pos.push_back(static_cast<int>(k));
+// Final statistics: model at every point, chi2/dof and RMS log10 error with n_params supported terms. Returns the
+// factor the uncertainties are scaled by when the model under-explains the scatter (max(1, chi2/dof)).
+double finalStatistics(const EdfSolver& s, const std::vector<double>& edf, int n_params, FitResult* r) {
+  const DeviationCurve& curve = s.curve;
+  const size_t np = curve.points.size();
   for (size_t i = 0; i < np; ++i) {
     double v = 0;
-    for (size_t k = 0; k < all_cols.size(); ++k)
-      if (c[static_cast<int>(k)] > 0) v += c[static_cast<int>(k)] * all_cols[k].basis(curve.points[i].tau);
-    r.model_var[i] = v;
+    for (size_t k = 0; k < s.all_cols.size(); ++k)
+      if (s.c[static_cast<int>(k)] > 0) v += s.c[static_cast<int>(k)] * s.all_cols[k].basis(curve.points[i].tau);
+    r->model_var[i] = v;
   }
   DeviationCurve weighted = curve;
   for (size_t i = 0; i < np; ++i) weighted.points[i].edf = edf[i];
-  const FitError fe = fitError(weighted, r.model_var, r.used, static_cast<int>(pos.size()), options.rms_min_edf);
-  r.dof = std::max(1, m - static_cast<int>(pos.size()));
-  r.chi2_dof = fe.chi2_dof;
-  r.chi2 = fe.chi2_dof * r.dof;
-  r.rms_log10 = fe.rms_log10;
-  r.n_rms = fe.n_rms;
-  const double inflate = std::max(1.0, r.chi2_dof);  // scale uncertainties when the model under-explains the scatter
+  const FitError fe = fitError(weighted, r->model_var, r->used, n_params, s.options.rms_min_edf);
+  r->dof = std::max(1, s.m - n_params);
+  r->chi2_dof = fe.chi2_dof;
+  r->chi2 = fe.chi2_dof * r->dof;
+  r->rms_log10 = fe.rms_log10;
+  r->n_rms = fe.n_rms;
+  return std::max(1.0, r->chi2_dof);
+}
 
-  auto setCoefficient = [&](int col, double cval, double cvar, bool supported) {
-    Coefficient co;
-    co.supported = supported;
-    if (supported) {
-      co.value = std::sqrt(cval);
-      co.sigma = std::sqrt(cvar * inflate) / (2.0 * co.value);
-    } else {
-      co.value = 0;
-      co.sigma = std::sqrt(std::max(0.0, cval) + std::sqrt(cvar * inflate));  // 1-sigma upper bound
-    }
-    const double sc = std::sqrt(std::max(0.0, cvar * inflate));
-    if (supported) {
-      co.lo68 = std::sqrt(std::max(0.0, cval - sc));
-      co.hi68 = std::sqrt(cval + sc);
-      co.lo95 = std::sqrt(std::max(0.0, cval - 1.959964 * sc));
-      co.hi95 = std::sqrt(cval + 1.959964 * sc);
-    } else {
-      co.hi68 = std::sqrt(std::max(0.0, std::max(0.0, cval) + 0.4758 * sc));  // one-sided 68.3 %: z = 0.4758
-      co.hi95 = std::sqrt(std::max(0.0, std::max(0.0, cval) + 1.644854 * sc));
-    }
-    const int term = all_cols[static_cast<size_t>(col)].term;
-    if (term < kNumTerms) r.terms[static_cast<size_t>(term)] = co;
-    else {
-      r.extra[static_cast<size_t>(term - kNumTerms)] = co;
-      r.extra_c[static_cast<size_t>(term - kNumTerms)] = supported ? cval : 0.0;
-    }
-  };
-  if (!pos.empty()) {
-    // Sigmas come from the covariance of the supported terms together with the terms dropped for insignificance:
-    // a term the data cannot tell apart from a neighbour (bias instability vs rate random walk over a short record)
-    // was dropped, but the uncertainty it causes in its neighbour must stay in that neighbour's sigma.
-    std::vector<int> cols = pos;
-    for (int e : eliminated)
-      if (std::find(cols.begin(), cols.end(), e) == cols.end()) cols.push_back(e);
-    Eigen::MatrixXd cov;
-    covariance(cols, &cov);
-    for (size_t k = 0; k < pos.size(); ++k) setCoefficient(pos[k], c[pos[k]], cov(static_cast<int>(k), static_cast<int>(k)), true);
+// Coefficient sqrt(c) from c = cval with variance cvar (scaled by inflate): value, sigma and intervals when
+// supported, otherwise its 1-sigma and one-sided upper bounds.
+Coefficient coefficientFrom(double cval, double cvar, double inflate, bool supported) {
+  Coefficient co;
+  co.supported = supported;
+  if (supported) {
+    co.value = std::sqrt(cval);
+    co.sigma = std::sqrt(cvar * inflate) / (2.0 * co.value);
+  } else {
+    co.value = 0;
+    co.sigma = std::sqrt(std::max(0.0, cval) + std::sqrt(cvar * inflate));  // 1-sigma upper bound
   }
-  // Bounds of the terms the data does not support: the unconstrained estimate and its sigma when the term is added.
-  for (size_t k = 0; k < all_cols.size(); ++k) {
+  const double sc = std::sqrt(std::max(0.0, cvar * inflate));
+  if (supported) {
+    co.lo68 = std::sqrt(std::max(0.0, cval - sc));
+    co.hi68 = std::sqrt(cval + sc);
+    co.lo95 = std::sqrt(std::max(0.0, cval - 1.959964 * sc));
+    co.hi95 = std::sqrt(cval + 1.959964 * sc);
+  } else {
+    co.hi68 = std::sqrt(std::max(0.0, std::max(0.0, cval) + 0.4758 * sc));  // one-sided 68.3 %: z = 0.4758
+    co.hi95 = std::sqrt(std::max(0.0, std::max(0.0, cval) + 1.644854 * sc));
+  }
+  return co;
+}
+
+// Stores a column's coefficient in r: an IEEE term's, or an extra term's with its c (0 when unsupported).
+void storeCoefficient(const Column& col, const Coefficient& co, double cval, FitResult* r) {
+  const int term = col.term;
+  if (term < kNumTerms) r->terms[static_cast<size_t>(term)] = co;
+  else {
+    r->extra[static_cast<size_t>(term - kNumTerms)] = co;
+    r->extra_c[static_cast<size_t>(term - kNumTerms)] = co.supported ? cval : 0.0;
+  }
+}
+
+// Sigmas come from the covariance of the supported terms together with the terms dropped for insignificance:
+// a term the data cannot tell apart from a neighbour (bias instability vs rate random walk over a short record)
+// was dropped, but the uncertainty it causes in its neighbour must stay in that neighbour's sigma.
+void setSupported(const EdfSolver& s, const std::vector<int>& pos, const std::vector<int>& eliminated, double inflate,
+                  FitResult* r) {
+  if (pos.empty()) return;
+  std::vector<int> cols = pos;
+  for (int e : eliminated)
+    if (std::find(cols.begin(), cols.end(), e) == cols.end()) cols.push_back(e);
+  Eigen::MatrixXd cov;
+  s.covariance(cols, &cov);
+  for (size_t k = 0; k < pos.size(); ++k) {
+    const double cval = s.c[pos[k]];
+    storeCoefficient(s.all_cols[static_cast<size_t>(pos[k])],
+                     coefficientFrom(cval, cov(static_cast<int>(k), static_cast<int>(k)), inflate, true), cval, r);
+  }
+}
+
+// Bounds of the terms the data does not support: the unconstrained estimate and its sigma when the term is added.
+void setBounds(const EdfSolver& s, const std::vector<int>& pos, double inflate, FitResult* r) {
+  for (size_t k = 0; k < s.all_cols.size(); ++k) {
     if (std::find(pos.begin(), pos.end(), static_cast<int>(k)) != pos.end()) continue;
     std::vector<int> cols = pos;
     cols.push_back(static_cast<int>(k));
     Eigen::MatrixXd A;
     Eigen::VectorXd b, scale;
-    scaledDesign(cols, &A, &b, &scale);
+    s.scaledDesign(cols, &A, &b, &scale);
     Eigen::VectorXd x = A.colPivHouseholderQr().solve(b);
     const int last = static_cast<int>(cols.size()) - 1;
     const double cu = scale[last] > 0 ? x[last] / scale[last] : 0.0;
     Eigen::MatrixXd cov;
-    covariance(cols, &cov);
-    setCoefficient(static_cast<int>(k), cu, std::max(0.0, cov(last, last)), false);
+    s.covariance(cols, &cov);
+    storeCoefficient(s.all_cols[k], coefficientFrom(cu, std::max(0.0, cov(last, last)), inflate, false), cu, r);
   }
+}
+
+/// EDF-weighted relative least squares (FitWeighting::Edf, and curves the GLS does not apply to).
+FitResult fitNoiseModelEdf(const DeviationCurve& curve, const FitOptions& options, const std::vector<ExtraTerm>& extra) {
+  FitResult r;
+  const size_t np = curve.points.size();
+  r.tau.resize(np);
+  r.model_var.assign(np, 0.0);
+  r.used.assign(np, false);
+  r.extra.assign(extra.size(), Coefficient{});
+  r.extra_c.assign(extra.size(), 0.0);
+
+  std::vector<int> pts;
+  std::vector<double> edf;
+  selectPoints(curve, options, &r, &pts, &edf);
+  const std::vector<Column> all_cols = fitColumns(options, extra);
+  if (pts.size() < 2 || all_cols.empty()) {
+    r.message = "too few Allan-variance points to fit (" + std::to_string(pts.size()) + ")";
+    return r;
+  }
+  const std::vector<double> wedf = decorrelatedEdf(curve, options, pts, edf);
+  EdfSolver s(curve, options, pts, wedf, all_cols);
+  s.solveIrls();
+  const std::vector<int> eliminated = s.eliminate();
+  const std::vector<int> pos = s.supportedCols();
+  const double inflate = finalStatistics(s, edf, static_cast<int>(pos.size()), &r);
+  setSupported(s, pos, eliminated, inflate, &r);
+  setBounds(s, pos, inflate, &r);
   r.ok = true;
   return r;
 }

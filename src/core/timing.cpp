@@ -312,19 +312,22 @@ bool StampGrid::pop(StampDecision* d) {
 
 namespace {
 
-/// sanitize() for any axis container with size() and operator[] (std::vector<double>, CompactSeries).
+// ---- sanitize, stage by stage -------------------------------------------------------------------------------------
+
+// Rejects inputs sanitize cannot work on (std::invalid_argument).
 template <class Axis>
-SanitizedSeries sanitizeImpl(const std::vector<double>& t, const std::vector<const Axis*>& axes,
-                             const SanitizeOptions& options, bool keep_values = true) {
+void validateSanitizeInputs(const std::vector<double>& t, const std::vector<const Axis*>& axes,
+                            const SanitizeOptions& options) {
   if (axes.empty() || axes.size() > 3) throw std::invalid_argument("sanitize: 1 to 3 axes expected");
   for (const auto* a : axes)
     if (!a || a->size() != t.size()) throw std::invalid_argument("sanitize: axis length differs from stamp count");
   if (!(options.gap_factor > 1.0)) throw std::invalid_argument("sanitize: gap_factor must be > 1");
-  SanitizedSeries out;
-  StampReport& rep = out.report;
-  rep.input = static_cast<int64_t>(t.size());
+}
 
-  // Pass 1: drop non-finite values and zero or non-finite stamps.
+// Pass 1: indices of the samples with finite values and a finite, non-zero stamp (the others counted in rep).
+template <class Axis>
+std::vector<uint32_t> usableSamples(const std::vector<double>& t, const std::vector<const Axis*>& axes,
+                                    StampReport* rep) {
   if (t.size() >= (size_t(1) << 32)) throw std::invalid_argument("sanitize: more than 2^32 samples");
   std::vector<uint32_t> idx;  // 4-byte indices: this runs on whole long records
   idx.reserve(t.size());
@@ -332,73 +335,93 @@ SanitizedSeries sanitizeImpl(const std::vector<double>& t, const std::vector<con
     bool finite = std::isfinite(t[i]);
     for (const auto* a : axes) finite = finite && std::isfinite((*a)[i]);
     if (!finite) {
-      ++rep.non_finite;
+      ++rep->non_finite;
       continue;
     }
     if (t[i] == 0) {
-      ++rep.zero_stamp;
+      ++rep->zero_stamp;
       continue;
     }
     idx.push_back(static_cast<uint32_t>(i));
   }
-  // A single stamp ahead of both neighbours (t[k] > t[k+1] while the previous kept stamp < t[k+1]) would otherwise be
-  // kept and make every later sample "out of order" until time catches up with it: drop the glitch itself instead.
-  {
-    size_t kept = 0;  // compacted in place: idx[0, kept) are the kept ones (kept <= k, so idx[k + 1] is untouched)
-    for (size_t k = 0; k < idx.size(); ++k) {
-      if (k + 1 < idx.size() && t[idx[k]] > t[idx[k + 1]] && (kept == 0 || t[idx[kept - 1]] < t[idx[k + 1]])) {
-        ++rep.out_of_order;
-        continue;
-      }
-      idx[kept++] = idx[k];
+  return idx;
+}
+
+// A single stamp ahead of both neighbours (t[k] > t[k+1] while the previous kept stamp < t[k+1]) would otherwise be
+// kept and make every later sample "out of order" until time catches up with it: drop the glitch itself instead.
+void dropStampGlitches(const std::vector<double>& t, std::vector<uint32_t>* index, StampReport* rep) {
+  std::vector<uint32_t>& idx = *index;
+  size_t kept = 0;  // compacted in place: idx[0, kept) are the kept ones (kept <= k, so idx[k + 1] is untouched)
+  for (size_t k = 0; k < idx.size(); ++k) {
+    if (k + 1 < idx.size() && t[idx[k]] > t[idx[k + 1]] && (kept == 0 || t[idx[kept - 1]] < t[idx[k + 1]])) {
+      ++rep->out_of_order;
+      continue;
     }
-    idx.resize(kept);
-    idx.shrink_to_fit();
+    idx[kept++] = idx[k];
   }
-  // Nominal period: given, or the median block slope of the stamps (robust to jitter and bursts).
-  double period = options.nominal_rate_hz > 0 ? 1.0 / options.nominal_rate_hz : 0.0;
-  if (period <= 0) {
-    period = estimatePeriodImpl(idx.size(), [&](size_t k) { return t[idx[k]]; }, 64);
-  }
-  // Pass 2: place the stamps on the sampler's grid (StampGrid); split where grid slots have no sample.
-  out.t.reserve(idx.size());
-  if (keep_values) {
-    for (size_t a = 0; a < axes.size(); ++a) out.v[a].reserve(idx.size());
-  } else {
-    out.kept.reserve(idx.size());
-  }
+  idx.resize(kept);
+  idx.shrink_to_fit();
+}
+
+// Pass 2: places the stamps on the sampler's grid (StampGrid), keeps their samples, splits where grid slots have no
+// sample, and gathers the rate-check and jitter figures on the way.
+template <class Axis>
+struct GridPass {
+  const std::vector<double>& t;
+  const std::vector<const Axis*>& axes;
+  const SanitizeOptions& options;
+  bool keep_values;
+  double period;
+  SanitizedSeries* out;
+  StampReport& rep;
   size_t seg_start = 0;
-  auto closeSegment = [&](size_t end) {
-    if (end > seg_start) {
-      if (end - seg_start >= options.min_segment) out.segments.push_back({seg_start, end});
-      else {
-        // Too short to carry a difference: its samples are dropped and counted as missing time.
-        for (size_t j = seg_start; j < end; ++j) {
-          ++rep.short_segment;
-          out.t.pop_back();
-          for (auto& a : out.v)
-            if (!a.empty()) a.pop_back();
-          if (!out.kept.empty()) out.kept.pop_back();
-        }
-        end = seg_start;
-      }
-    }
-    seg_start = out.t.size();
-  };
   // Rate check: the slope of stamp against grid index over chunks of kept samples (about 20 per record), so that
   // neither jitter nor gaps look like a rate change.
-  const size_t chunk = std::max<size_t>(64, idx.size() / 20);
+  size_t chunk;
   size_t chunk_n = 0;
   double chunk_t0 = 0;
   int64_t chunk_k0 = 0;
   // Jitter: lags of a subsample of kept stamps (at most ~65536), for percentiles.
-  const size_t lag_step = std::max<size_t>(1, idx.size() >> 16);
+  size_t lag_step;
   std::vector<float> lags;
   size_t n_keep = 0;
   bool have_prev = false;
   double first_keep_t = 0, last_keep_t = 0;  // grid span of the record, for the final period
   int64_t first_keep_k = 0, last_keep_k = 0;
-  auto handle = [&](const StampDecision& d) {
+
+  GridPass(const std::vector<double>& t_, const std::vector<const Axis*>& axes_, const SanitizeOptions& options_,
+           bool keep_values_, double period_, size_t n_usable, SanitizedSeries* out_)
+      : t(t_), axes(axes_), options(options_), keep_values(keep_values_), period(period_), out(out_),
+        rep(out_->report), chunk(std::max<size_t>(64, n_usable / 20)), lag_step(std::max<size_t>(1, n_usable >> 16)) {
+    out->t.reserve(n_usable);
+    if (keep_values) {
+      for (size_t a = 0; a < axes.size(); ++a) out->v[a].reserve(n_usable);
+    } else {
+      out->kept.reserve(n_usable);
+    }
+  }
+
+  // Ends the current segment at `end`: kept if long enough, otherwise its samples are dropped.
+  void closeSegment(size_t end) {
+    if (end > seg_start) {
+      if (end - seg_start >= options.min_segment) out->segments.push_back({seg_start, end});
+      else {
+        // Too short to carry a difference: its samples are dropped and counted as missing time.
+        for (size_t j = seg_start; j < end; ++j) {
+          ++rep.short_segment;
+          out->t.pop_back();
+          for (auto& a : out->v)
+            if (!a.empty()) a.pop_back();
+          if (!out->kept.empty()) out->kept.pop_back();
+        }
+        end = seg_start;
+      }
+    }
+    seg_start = out->t.size();
+  }
+
+  // One decision of the grid: counted when dropped; kept (after closing the segment at a gap) otherwise.
+  void handle(const StampDecision& d) {
     switch (d.verdict) {
       case StampVerdict::Duplicate: ++rep.duplicate; return;
       case StampVerdict::OutOfOrder: ++rep.out_of_order; return;
@@ -408,7 +431,7 @@ SanitizedSeries sanitizeImpl(const std::vector<double>& t, const std::vector<con
     if (have_prev && d.missing > 0) {
       ++rep.gaps;
       rep.missing_samples += d.missing;
-      closeSegment(out.t.size());
+      closeSegment(out->t.size());
     }
     if (n_keep++ % lag_step == 0) lags.push_back(static_cast<float>(d.lag));
     rep.jitter_max_s = std::max(rep.jitter_max_s, d.lag);
@@ -429,46 +452,53 @@ SanitizedSeries sanitizeImpl(const std::vector<double>& t, const std::vector<con
     last_keep_t = d.stamp;
     last_keep_k = d.index;
     const size_t i = static_cast<size_t>(d.tag);
-    out.t.push_back(t[i]);
+    out->t.push_back(t[i]);
     if (keep_values) {
-      for (size_t a = 0; a < axes.size(); ++a) out.v[a].push_back((*axes[a])[i]);
+      for (size_t a = 0; a < axes.size(); ++a) out->v[a].push_back((*axes[a])[i]);
     } else {
-      out.kept.push_back(static_cast<uint32_t>(i));
+      out->kept.push_back(static_cast<uint32_t>(i));
     }
     have_prev = true;
-  };
-  if (period > 0) {
-    StampGrid grid(period, options.gap_factor, options.lookahead_s);
-    StampDecision d;
-    for (size_t k = 0; k < idx.size(); ++k) {
-      grid.push(t[idx[k]], idx[k]);
-      while (grid.pop(&d)) handle(d);
-    }
-    grid.finish();
-    while (grid.pop(&d)) handle(d);
-  } else if (!idx.empty()) {
-    // One usable stamp (or all equal): keep the first, the rest are duplicates.
-    StampDecision d;
-    d.stamp = t[idx[0]];
-    d.tag = idx[0];
-    handle(d);
-    for (size_t k = 1; k < idx.size(); ++k) ++(t[idx[k]] == t[idx[0]] ? rep.duplicate : rep.out_of_order);
   }
-  closeSegment(out.t.size());
-  std::vector<uint32_t>().swap(idx);
-  // Nothing dropped (the usual case): the kept index is the identity and is not stored.
-  if (!keep_values && out.kept.size() == t.size()) std::vector<uint32_t>().swap(out.kept);
-  rep.kept = static_cast<int64_t>(out.t.size());
-  // The period over the whole grid (first to last kept stamp over their index difference): the block estimate
-  // started the grid, this one carries the jitter once over the whole record. Kept only when it agrees (a rate
-  // change makes the two differ; rate_changed says so).
-  if (options.nominal_rate_hz <= 0 && last_keep_k - first_keep_k >= 64) {
-    const double whole = (last_keep_t - first_keep_t) / static_cast<double>(last_keep_k - first_keep_k);
+
+  // All usable samples through the grid, then the last segment closed.
+  void run(const std::vector<uint32_t>& idx) {
+    if (period > 0) {
+      StampGrid grid(period, options.gap_factor, options.lookahead_s);
+      StampDecision d;
+      for (size_t k = 0; k < idx.size(); ++k) {
+        grid.push(t[idx[k]], idx[k]);
+        while (grid.pop(&d)) handle(d);
+      }
+      grid.finish();
+      while (grid.pop(&d)) handle(d);
+    } else if (!idx.empty()) {
+      // One usable stamp (or all equal): keep the first, the rest are duplicates.
+      StampDecision d;
+      d.stamp = t[idx[0]];
+      d.tag = idx[0];
+      handle(d);
+      for (size_t k = 1; k < idx.size(); ++k) ++(t[idx[k]] == t[idx[0]] ? rep.duplicate : rep.out_of_order);
+    }
+    closeSegment(out->t.size());
+  }
+};
+
+// The report's period, rate, jitter and span from the grid pass. The period over the whole grid (first to last kept
+// stamp over their index difference): the block estimate started the grid, this one carries the jitter once over the
+// whole record. Kept only when it agrees (a rate change makes the two differ; rate_changed says so).
+template <class Axis>
+void summarizeStamps(GridPass<Axis>* g, SanitizedSeries* out) {
+  StampReport& rep = out->report;
+  double period = g->period;
+  if (g->options.nominal_rate_hz <= 0 && g->last_keep_k - g->first_keep_k >= 64) {
+    const double whole = (g->last_keep_t - g->first_keep_t) / static_cast<double>(g->last_keep_k - g->first_keep_k);
     if (std::fabs(whole / period - 1.0) < 0.01) period = whole;
   }
   rep.nominal_period_s = period;
   rep.gap_time_s = static_cast<double>(rep.missing_samples) * period;
   rep.rate_hz = period > 0 ? 1.0 / period : 0.0;
+  std::vector<float>& lags = g->lags;
   if (!lags.empty()) {
     std::sort(lags.begin(), lags.end());
     rep.jitter_p50_s = lags[lags.size() / 2];
@@ -476,10 +506,34 @@ SanitizedSeries sanitizeImpl(const std::vector<double>& t, const std::vector<con
   }
   rep.receipt_stamps = period > 0 && rep.jitter_p99_s > 0.1 * period;
   rep.rate_changed = rep.max_rate_deviation > 0.05;
-  if (!out.t.empty()) {
-    rep.first_stamp = out.t.front();
-    rep.last_stamp = out.t.back();
+  if (!out->t.empty()) {
+    rep.first_stamp = out->t.front();
+    rep.last_stamp = out->t.back();
   }
+}
+
+/// sanitize() for any axis container with size() and operator[] (std::vector<double>, CompactSeries).
+template <class Axis>
+SanitizedSeries sanitizeImpl(const std::vector<double>& t, const std::vector<const Axis*>& axes,
+                             const SanitizeOptions& options, bool keep_values = true) {
+  validateSanitizeInputs(t, axes, options);
+  SanitizedSeries out;
+  StampReport& rep = out.report;
+  rep.input = static_cast<int64_t>(t.size());
+  std::vector<uint32_t> idx = usableSamples(t, axes, &rep);
+  dropStampGlitches(t, &idx, &rep);
+  // Nominal period: given, or the median block slope of the stamps (robust to jitter and bursts).
+  double period = options.nominal_rate_hz > 0 ? 1.0 / options.nominal_rate_hz : 0.0;
+  if (period <= 0) {
+    period = estimatePeriodImpl(idx.size(), [&](size_t k) { return t[idx[k]]; }, 64);
+  }
+  GridPass<Axis> pass(t, axes, options, keep_values, period, idx.size(), &out);
+  pass.run(idx);
+  std::vector<uint32_t>().swap(idx);
+  // Nothing dropped (the usual case): the kept index is the identity and is not stored.
+  if (!keep_values && out.kept.size() == t.size()) std::vector<uint32_t>().swap(out.kept);
+  rep.kept = static_cast<int64_t>(out.t.size());
+  summarizeStamps(&pass, &out);
   return out;
 }
 

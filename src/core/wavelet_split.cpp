@@ -256,8 +256,12 @@ int automaticSplitLevel(const std::vector<double>& rate, double tau0, const Wave
   return splitLevelFrom(levelVariances(rate, w, 32));
 }
 
-WaveletSplitResult waveletSplit(const std::vector<double>& rate, double tau0, const WaveletSplitOptions& options,
-                                const DeviationCurve* raw_oadev) {
+namespace {
+
+// ---- waveletSplit, stage by stage ---------------------------------------------------------------------------------
+
+// Rejects inputs waveletSplit cannot work on (std::invalid_argument); the record-length check is the caller's.
+void validateSplitInputs(const std::vector<double>& rate, double tau0, const WaveletSplitOptions& options) {
   if (!(tau0 > 0) || !std::isfinite(tau0)) throw std::invalid_argument("waveletSplit: tau0 must be > 0");
   for (double v : rate)
     if (!std::isfinite(v)) throw std::invalid_argument("waveletSplit: non-finite rate sample");
@@ -265,136 +269,122 @@ WaveletSplitResult waveletSplit(const std::vector<double>& rate, double tau0, co
     throw std::invalid_argument("waveletSplit: q_estimator must be 'angle' or 'allan'");
   if (options.n_estimator != "wavelet_variance" && options.n_estimator != "allan")
     throw std::invalid_argument("waveletSplit: n_estimator must be 'wavelet_variance' or 'allan'");
-  const Wavelet w(options.wavelet);
-  const int F = w.dec_len();
-  if (static_cast<int64_t>(rate.size()) < 64 * F)
-    throw std::invalid_argument("waveletSplit: record too short (need at least 64 * filter length samples)");
+}
 
-  WaveletSplitResult r;
-  r.wavelet = options.wavelet;
-  // Wavelet variances of the input (all levels with >= 8 interior coefficients): one deep decomposition serves the
-  // automatic level (its levels with >= 32 coefficients, the same numbers as a separate decomposition) and N.
-  const LevelData lv = levelVariances(rate, w, 8);
-  r.level = options.level > 0 ? options.level : splitLevelFrom(lv);
-  r.split_frequency_hz = 1.0 / (tau0 * std::ldexp(2.0, r.level));
-
-  // 1. The split.
+// 1. The split at r->level (wden), with its thresholds and the fraction of detail coefficients it kept.
+WdenResult splitRecord(const std::vector<double>& rate, const WaveletSplitOptions& options, WaveletSplitResult* r) {
   WdenOptions wo;
   wo.wavelet = options.wavelet;
-  wo.level = r.level;
+  wo.level = r->level;
   wo.rule = options.rule;
   wo.mode = options.mode;
   wo.scaling = options.scaling;
   wo.extension = ExtensionMode::Symmetric;
   wo.removed_by_difference = true;  // long records: two record-sized arrays fewer (same parts to ~1e-15)
   WdenResult split = wden(rate, wo);
-  r.thresholds = split.thresholds;
-  {
-    double kept = 0, total = 0;
-    for (int k = 1; k <= r.level; ++k) {
-      const double cnt = static_cast<double>(rate.size()) / std::ldexp(1.0, k);
-      kept += split.kept_fraction[static_cast<size_t>(k - 1)] * cnt;
-      total += cnt;
-    }
-    r.kept_fraction = total > 0 ? kept / total : 0.0;
+  r->thresholds = split.thresholds;
+  double kept = 0, total = 0;
+  for (int k = 1; k <= r->level; ++k) {
+    const double cnt = static_cast<double>(rate.size()) / std::ldexp(1.0, k);
+    kept += split.kept_fraction[static_cast<size_t>(k - 1)] * cnt;
+    total += cnt;
   }
+  r->kept_fraction = total > 0 ? kept / total : 0.0;
+  return split;
+}
 
-  // 2. Allan deviation of each part, and of the input (for the combined fit error).
-  r.denoised_curve = computeDeviation("oadev", split.denoised, InputKind::Rate, tau0, options.deviation);
-  r.removed_curve = computeDeviation("oadev", split.removed, InputKind::Rate, tau0, options.deviation);
-  const DeviationCurve raw_curve =
-      raw_oadev ? *raw_oadev : computeDeviation("oadev", rate, InputKind::Rate, tau0, options.deviation);
-
-  // 3. Allan fits. Removed part: 3Q^2/tau^2 + N_r^2/tau. Denoised part above 4 * 2^level * tau0 with a leak term.
+// 3. Allan fits. Removed part: 3Q^2/tau^2 + N_r^2/tau. Denoised part above 4 * 2^level * tau0 with a leak term.
+void fitParts(double tau0, const WaveletSplitOptions& options, WaveletSplitResult* r) {
   FitOptions rem_opt;
   rem_opt.enabled = {{true, true, false, false, false}};
-  r.removed_fit = fitNoiseModel(r.removed_curve, rem_opt);
-  const double tau_min = 4.0 * std::ldexp(tau0, r.level);
+  r->removed_fit = fitNoiseModel(r->removed_curve, rem_opt);
+  const double tau_min = 4.0 * std::ldexp(tau0, r->level);
   FitOptions den_opt;
   den_opt.enabled = options.enabled;
   den_opt.enabled[kQuantization] = true;  // absorbs the quantization noise below the split frequency
-  const DeviationCurve den_fit_curve = restrictTau(r.denoised_curve, tau_min);
-  r.denoised_fit = fitNoiseModel(den_fit_curve, den_opt);
-  if (r.removed_fit.ok) {
-    r.q_allan = r.removed_fit.terms[kQuantization].value;
-    r.q_allan_sigma = r.removed_fit.terms[kQuantization].sigma;
-    r.n_removed = r.removed_fit.terms[kAngleRandomWalk].value;
+  const DeviationCurve den_fit_curve = restrictTau(r->denoised_curve, tau_min);
+  r->denoised_fit = fitNoiseModel(den_fit_curve, den_opt);
+  if (r->removed_fit.ok) {
+    r->q_allan = r->removed_fit.terms[kQuantization].value;
+    r->q_allan_sigma = r->removed_fit.terms[kQuantization].sigma;
+    r->n_removed = r->removed_fit.terms[kAngleRandomWalk].value;
   }
-  if (r.denoised_fit.ok) {
-    r.n_allan = r.denoised_fit.terms[kAngleRandomWalk].value;
-    r.n_allan_sigma = r.denoised_fit.terms[kAngleRandomWalk].sigma;
+  if (r->denoised_fit.ok) {
+    r->n_allan = r->denoised_fit.terms[kAngleRandomWalk].value;
+    r->n_allan_sigma = r->denoised_fit.terms[kAngleRandomWalk].sigma;
   }
+}
 
-  // 4. Wavelet variances of the input and their responses.
-  const int J = static_cast<int>(lv.var.size());
-  const auto resp = waveletLevelResponses(w, std::max(1, J), tau0);
-  const SplitAngleFactors fac = splitAngleFactors(w, r.level);
-  r.quantization_kept = fac.v_q;
+// Variance of the removed part's angle and its uncertainty.
+struct AngleVariance {
+  double var = 0, sigma = 0;
+};
 
-  // 5. Q (angle) and N (wavelet variance), iterated: each uses the other's current value.
-  // The symmetric extension distorts the split within about one level-L scaling function (length S) of each end
-  // (measured: +0.6 to +1.8 % on var(angle) at level 9 if the ends are kept), so only the interior is used.
-  const std::vector<double> full_angle = removedAngle(split.removed, tau0);
-  const size_t margin = static_cast<size_t>((F - 1) * (std::ldexp(1.0, r.level) - 1) + 1 + std::ldexp(1.0, r.level));
-  if (full_angle.size() < 4 * margin)
-    throw std::invalid_argument("waveletSplit: record too short for split level " + std::to_string(r.level));
-  const AngleView angle{full_angle.data() + margin, full_angle.size() - 2 * margin};  // interior, not copied
-  r.removed_angle = angleErrorStats(angle.begin(), angle.size());
-  const double var_a = r.removed_angle.std * r.removed_angle.std;
-  // Uncertainty of var(angle) by batch means over 64 blocks.
+// Uncertainty of var(angle) by batch means over 64 blocks (0 when there are too few samples).
+double batchVarianceSigma(const AngleView& angle) {
   double var_a_sigma = 0;
-  {
-    const size_t nb = 64, len = angle.size() / nb;
-    std::vector<double> bv;
-    for (size_t b = 0; b < nb && len > 1; ++b) {
-      long double s = 0, s2 = 0;
-      for (size_t i = b * len; i < (b + 1) * len; ++i) s += angle[i];
-      const long double m = s / len;
-      for (size_t i = b * len; i < (b + 1) * len; ++i) s2 += (angle[i] - m) * (angle[i] - m);
-      bv.push_back(static_cast<double>(s2 / (len - 1)));
-    }
-    if (bv.size() > 1) {
-      const double mb = std::accumulate(bv.begin(), bv.end(), 0.0) / bv.size();
-      double ss = 0;
-      for (double v : bv) ss += (v - mb) * (v - mb);
-      var_a_sigma = std::sqrt(ss / (bv.size() - 1) / bv.size());
-    }
+  const size_t nb = 64, len = angle.size() / nb;
+  std::vector<double> bv;
+  for (size_t b = 0; b < nb && len > 1; ++b) {
+    long double s = 0, s2 = 0;
+    for (size_t i = b * len; i < (b + 1) * len; ++i) s += angle[i];
+    const long double m = s / len;
+    for (size_t i = b * len; i < (b + 1) * len; ++i) s2 += (angle[i] - m) * (angle[i] - m);
+    bv.push_back(static_cast<double>(s2 / (len - 1)));
   }
+  if (bv.size() > 1) {
+    const double mb = std::accumulate(bv.begin(), bv.end(), 0.0) / bv.size();
+    double ss = 0;
+    for (double v : bv) ss += (v - mb) * (v - mb);
+    var_a_sigma = std::sqrt(ss / (bv.size() - 1) / bv.size());
+  }
+  return var_a_sigma;
+}
+
+// The removed part as an angle error, on the interior only: the symmetric extension distorts the split within
+// about one level-L scaling function (length S) of each end (measured: +0.6 to +1.8 % on var(angle) at level 9 if
+// the ends are kept). Fills r->removed_angle; returns var(angle) and its sigma.
+AngleVariance removedAngleVariance(const std::vector<double>& removed, double tau0, int F, WaveletSplitResult* r) {
+  const std::vector<double> full_angle = removedAngle(removed, tau0);
+  const size_t margin = static_cast<size_t>((F - 1) * (std::ldexp(1.0, r->level) - 1) + 1 + std::ldexp(1.0, r->level));
+  if (full_angle.size() < 4 * margin)
+    throw std::invalid_argument("waveletSplit: record too short for split level " + std::to_string(r->level));
+  const AngleView angle{full_angle.data() + margin, full_angle.size() - 2 * margin};  // interior, not copied
+  r->removed_angle = angleErrorStats(angle.begin(), angle.size());
+  AngleVariance av;
+  av.var = r->removed_angle.std * r->removed_angle.std;
   // Floor: the scatter var(angle) would have if the error were white uniform quantization (excess kurtosis -6/5:
   // Var(s^2) = 0.8 s^4 / n). A pulse counter's sawtooth at constant rate repeats itself, so its batch means barely
   // scatter (the 64-block sigma came out ~7x below the actual error of Q on undithered records, coverage_study).
-  var_a_sigma = std::max(var_a_sigma, var_a * std::sqrt(0.8 / static_cast<double>(std::max<size_t>(1, angle.size()))));
-  // Longer-tau terms known from the denoised Allan fit (fixed in the level model).
+  av.sigma = std::max(batchVarianceSigma(angle),
+                      av.var * std::sqrt(0.8 / static_cast<double>(std::max<size_t>(1, angle.size()))));
+  return av;
+}
+
+// Weighted least-squares fit of the level variances (LevelModel::fit).
+struct LevelFit {
+  double n2 = 0, n2_sigma = 0, gamma = 0, gamma_sigma = 0;
+  int j_start = 0;
+  bool ok = false;
+};
+
+// The wavelet variances of levels 1..J as a model: each level's response to the noise terms, with the longer-tau
+// terms (B, K) fixed from the denoised Allan fit.
+struct LevelModel {
+  const std::vector<std::array<double, kNumTerms>>& resp;
+  const std::vector<WaveletLevel>& levels;
+  int J;
   double b2 = 0, k2 = 0;
-  if (r.denoised_fit.ok) {
-    if (options.enabled[kBiasInstability]) b2 = std::pow(r.denoised_fit.terms[kBiasInstability].value, 2);
-    if (options.enabled[kRateRandomWalk]) k2 = std::pow(r.denoised_fit.terms[kRateRandomWalk].value, 2);
-  }
-  double n2 = r.n_allan * r.n_allan;
-  double n2_sigma = 0;
-  if (!(n2 > 0) && J > 0) n2 = lv.var[static_cast<size_t>(J - 1)] * tau0;  // start from the coarsest level
-  double q2 = 0, q2_sigma = 0;
-  r.levels.assign(static_cast<size_t>(J), WaveletLevel{});
-  for (int j = 1; j <= J; ++j) {
-    auto& L = r.levels[static_cast<size_t>(j - 1)];
-    L.level = j;
-    L.f_hi = 1.0 / (tau0 * std::ldexp(2.0, j - 1));
-    L.f_lo = L.f_hi / 2;
-    L.count = lv.count[static_cast<size_t>(j - 1)];
-    L.var = lv.var[static_cast<size_t>(j - 1)];
-  }
-  auto other = [&](int j) {
+
+  // Variance of level j from the fixed longer-tau terms.
+  double other(int j) const {
     const auto& rj = resp[static_cast<size_t>(j - 1)];
     return b2 * rj[kBiasInstability] + k2 * rj[kRateRandomWalk];
-  };
+  }
+
   // Weighted least squares of var_j - other_j = n2 * b_j (+ gamma * a_j when gamma is free) over the given levels,
-  // weights count_j / (2 model_j^2) from the current model. Returns false if no level qualifies.
-  struct LevelFit {
-    double n2 = 0, n2_sigma = 0, gamma = 0, gamma_sigma = 0;
-    int j_start = 0;
-    bool ok = false;
-  };
-  auto fitLevels = [&](bool free_gamma, double gamma_fixed, double share_max, double n2_start) {
+  // weights count_j / (2 model_j^2) from the current model. ok false if no level qualifies.
+  LevelFit fit(bool free_gamma, double gamma_fixed, double share_max, double n2_start) const {
     LevelFit f;
     double n2c = n2_start, gc = free_gamma ? gamma_fixed : gamma_fixed;
     for (int it = 0; it < 5; ++it) {
@@ -405,7 +395,7 @@ WaveletSplitResult waveletSplit(const std::vector<double>& rate, double tau0, co
       int j_start = J + 1;
       for (int j = J; j >= 1; --j) {
         const auto& rj = resp[static_cast<size_t>(j - 1)];
-        const auto& L = r.levels[static_cast<size_t>(j - 1)];
+        const auto& L = levels[static_cast<size_t>(j - 1)];
         const bool pass = L.count >= 8 && (free_gamma ? gamma_fixed * rj[kQuantization] <= share_max * n2c * rj[kAngleRandomWalk]
                                                       : gamma_fixed * rj[kQuantization] <= share_max * L.var);
         if (!pass) break;
@@ -414,7 +404,7 @@ WaveletSplitResult waveletSplit(const std::vector<double>& rate, double tau0, co
       f.j_start = j_start;
       for (int j = j_start; j <= J; ++j) {
         const auto& rj = resp[static_cast<size_t>(j - 1)];
-        const auto& L = r.levels[static_cast<size_t>(j - 1)];
+        const auto& L = levels[static_cast<size_t>(j - 1)];
         const double model = std::max(n2c * rj[kAngleRandomWalk] + gc * rj[kQuantization] + other(j), 1e-300);
         const double wgt = static_cast<double>(L.count) / (2.0 * model * model);
         const double y = L.var - other(j) - (free_gamma ? 0.0 : gamma_fixed * rj[kQuantization]);
@@ -450,86 +440,177 @@ WaveletSplitResult waveletSplit(const std::vector<double>& rate, double tau0, co
     f.n2 = n2c;
     f.gamma = gc;
     return f;
-  };
-  // Q (angle) and N (levels) depend on each other weakly: iterate. With the white-quantization model the levels
-  // near the crossover have a known quantization share Q^2 a_j ("fixed"). A quantization error that is not white
-  // (sawtooth of a pulse counter at constant rate) leaves the coarse levels nearly clean, and subtracting the white
-  // share there would bias N low; so the share is also fitted freely ("free": gamma a_j over levels whose white
-  // share is at most free_fit_max_ratio times the ARW) and the fixed fit is used only when gamma agrees with Q^2 within
-  // 3 sigma. For non-white quantization the lost fraction 1 - V_Q is scaled by the same gamma / Q^2.
+  }
+};
+
+// The levels of the report (bands, counts, variances), before the model is known.
+void describeLevels(const LevelData& lv, int J, double tau0, WaveletSplitResult* r) {
+  r->levels.assign(static_cast<size_t>(J), WaveletLevel{});
+  for (int j = 1; j <= J; ++j) {
+    auto& L = r->levels[static_cast<size_t>(j - 1)];
+    L.level = j;
+    L.f_hi = 1.0 / (tau0 * std::ldexp(2.0, j - 1));
+    L.f_lo = L.f_hi / 2;
+    L.count = lv.count[static_cast<size_t>(j - 1)];
+    L.var = lv.var[static_cast<size_t>(j - 1)];
+  }
+}
+
+// Q^2 (angle) and N^2 (levels) with their sigmas, and the levels N used.
+struct QnEstimate {
+  double q2 = 0, q2_sigma = 0, n2 = 0, n2_sigma = 0;
+  int j_used = 0;
+};
+
+// Q (angle) and N (levels) depend on each other weakly: iterate. With the white-quantization model the levels
+// near the crossover have a known quantization share Q^2 a_j ("fixed"). A quantization error that is not white
+// (sawtooth of a pulse counter at constant rate) leaves the coarse levels nearly clean, and subtracting the white
+// share there would bias N low; so the share is also fitted freely ("free": gamma a_j over levels whose white
+// share is at most free_fit_max_ratio times the ARW) and the fixed fit is used only when gamma agrees with Q^2 within
+// 3 sigma. For non-white quantization the lost fraction 1 - V_Q is scaled by the same gamma / Q^2.
+// Sets r->quantization_white, quantization_level_share and quantization_kept.
+QnEstimate iterateQn(const LevelModel& lm, const SplitAngleFactors& fac, const AngleVariance& av, double tau0,
+                     double n2_start, const WaveletSplitOptions& options, WaveletSplitResult* r) {
+  QnEstimate e;
+  e.n2 = n2_start;
+  const double var_a = av.var, var_a_sigma = av.sigma;
   const double kFreeFitMaxRatio = options.free_fit_max_ratio;
-  int j_used = J + 1;
+  e.j_used = lm.J + 1;
   double v_q_eff = fac.v_q;
   for (int it = 0; it < 5; ++it) {
-    q2 = std::max(0.0, (var_a - fac.v_n * n2 * tau0) / v_q_eff);
-    q2_sigma = std::sqrt(var_a_sigma * var_a_sigma + std::pow(fac.v_n * tau0 * n2_sigma, 2)) / v_q_eff;
-    const LevelFit fixed = fitLevels(false, q2, options.max_quantization_share, n2);
-    const LevelFit freef = fitLevels(true, q2, kFreeFitMaxRatio, n2);
-    r.quantization_white = !(freef.ok && freef.gamma_sigma > 0 && std::fabs(freef.gamma - q2) > 3.0 * freef.gamma_sigma);
-    r.quantization_level_share = freef.ok && q2 > 0 ? freef.gamma / q2 : 0.0;
-    const LevelFit& use = (r.quantization_white && fixed.ok) ? fixed : freef;
+    e.q2 = std::max(0.0, (var_a - fac.v_n * e.n2 * tau0) / v_q_eff);
+    e.q2_sigma = std::sqrt(var_a_sigma * var_a_sigma + std::pow(fac.v_n * tau0 * e.n2_sigma, 2)) / v_q_eff;
+    const LevelFit fixed = lm.fit(false, e.q2, options.max_quantization_share, e.n2);
+    const LevelFit freef = lm.fit(true, e.q2, kFreeFitMaxRatio, e.n2);
+    r->quantization_white = !(freef.ok && freef.gamma_sigma > 0 && std::fabs(freef.gamma - e.q2) > 3.0 * freef.gamma_sigma);
+    r->quantization_level_share = freef.ok && e.q2 > 0 ? freef.gamma / e.q2 : 0.0;
+    const LevelFit& use = (r->quantization_white && fixed.ok) ? fixed : freef;
     if (use.ok) {
-      n2 = use.n2;
-      n2_sigma = use.n2_sigma;
-      j_used = use.j_start;
+      e.n2 = use.n2;
+      e.n2_sigma = use.n2_sigma;
+      e.j_used = use.j_start;
     }
-    const double lost = (1.0 - fac.v_q) * (r.quantization_white ? 1.0 : std::min(1.0, r.quantization_level_share));
+    const double lost = (1.0 - fac.v_q) * (r->quantization_white ? 1.0 : std::min(1.0, r->quantization_level_share));
     v_q_eff = 1.0 - lost;
   }
-  r.quantization_kept = v_q_eff;
-  for (int j = 1; j <= J; ++j) {
-    const auto& rj = resp[static_cast<size_t>(j - 1)];
-    auto& L = r.levels[static_cast<size_t>(j - 1)];
-    const double share = r.quantization_white ? 1.0 : r.quantization_level_share;
-    L.quantization_var = share * q2 * rj[kQuantization];
-    L.model_var = L.quantization_var + n2 * rj[kAngleRandomWalk] + other(j);
-    L.used_for_n = j >= j_used;
-  }
-  r.q_angle = std::sqrt(q2);
-  r.q_angle_sigma = r.q_angle > 0 ? 0.5 * q2_sigma / r.q_angle : std::sqrt(q2_sigma);
-  r.n_wavelet = std::sqrt(n2);
-  r.n_wavelet_sigma = r.n_wavelet > 0 ? 0.5 * n2_sigma / r.n_wavelet : std::sqrt(n2_sigma);
-  r.removed_arw_angle_var = fac.v_n * n2 * tau0;
-  r.removed_arw_share = var_a > 0 ? r.removed_arw_angle_var / var_a : 0.0;
+  r->quantization_kept = v_q_eff;
+  return e;
+}
 
-  // 6. Reported coefficients.
+// The levels' model variances and Q, N from the angle and the levels, with the ARW share of the removed angle.
+void recordQn(const LevelModel& lm, const QnEstimate& e, const SplitAngleFactors& fac, const AngleVariance& av,
+              double tau0, WaveletSplitResult* r) {
+  for (int j = 1; j <= lm.J; ++j) {
+    const auto& rj = lm.resp[static_cast<size_t>(j - 1)];
+    auto& L = r->levels[static_cast<size_t>(j - 1)];
+    const double share = r->quantization_white ? 1.0 : r->quantization_level_share;
+    L.quantization_var = share * e.q2 * rj[kQuantization];
+    L.model_var = L.quantization_var + e.n2 * rj[kAngleRandomWalk] + lm.other(j);
+    L.used_for_n = j >= e.j_used;
+  }
+  r->q_angle = std::sqrt(e.q2);
+  r->q_angle_sigma = r->q_angle > 0 ? 0.5 * e.q2_sigma / r->q_angle : std::sqrt(e.q2_sigma);
+  r->n_wavelet = std::sqrt(e.n2);
+  r->n_wavelet_sigma = r->n_wavelet > 0 ? 0.5 * e.n2_sigma / r->n_wavelet : std::sqrt(e.n2_sigma);
+  r->removed_arw_angle_var = fac.v_n * e.n2 * tau0;
+  r->removed_arw_share = av.var > 0 ? r->removed_arw_angle_var / av.var : 0.0;
+}
+
+// 6. Reported coefficients: Q and N from the chosen estimators, the longer-tau terms from the denoised Allan fit.
+void reportCoefficients(const WaveletSplitOptions& options, const QnEstimate& e, WaveletSplitResult* r) {
   if (options.q_estimator == "angle") {
-    r.terms[kQuantization] = coefficientFromSquare(q2, q2_sigma);
+    r->terms[kQuantization] = coefficientFromSquare(e.q2, e.q2_sigma);
   } else {
-    r.terms[kQuantization] = r.removed_fit.terms[kQuantization];
+    r->terms[kQuantization] = r->removed_fit.terms[kQuantization];
   }
   if (options.n_estimator == "wavelet_variance") {
-    r.terms[kAngleRandomWalk] = coefficientFromSquare(n2, n2_sigma);
+    r->terms[kAngleRandomWalk] = coefficientFromSquare(e.n2, e.n2_sigma);
   } else {
-    r.terms[kAngleRandomWalk] = r.denoised_fit.terms[kAngleRandomWalk];
+    r->terms[kAngleRandomWalk] = r->denoised_fit.terms[kAngleRandomWalk];
   }
   for (int t = kBiasInstability; t < kNumTerms; ++t) {
-    if (options.enabled[static_cast<size_t>(t)] && r.denoised_fit.ok) r.terms[static_cast<size_t>(t)] = r.denoised_fit.terms[static_cast<size_t>(t)];
+    if (options.enabled[static_cast<size_t>(t)] && r->denoised_fit.ok) r->terms[static_cast<size_t>(t)] = r->denoised_fit.terms[static_cast<size_t>(t)];
   }
-  if (!options.enabled[kAngleRandomWalk]) r.terms[kAngleRandomWalk] = Coefficient{};
-  if (!options.enabled[kQuantization]) r.terms[kQuantization] = Coefficient{};
+  if (!options.enabled[kAngleRandomWalk]) r->terms[kAngleRandomWalk] = Coefficient{};
+  if (!options.enabled[kQuantization]) r->terms[kQuantization] = Coefficient{};
+}
 
-  // 7. Fit error measures.
-  auto modelOf = [&](const DeviationCurve& c, const std::array<Coefficient, kNumTerms>& terms) {
-    std::vector<double> m(c.points.size(), 0.0);
-    for (size_t i = 0; i < c.points.size(); ++i)
-      for (int t = 0; t < kNumTerms; ++t) m[i] += terms[static_cast<size_t>(t)].value * terms[static_cast<size_t>(t)].value * noiseTermBasis(t, c.points[i].tau);
-    return m;
-  };
+// Model Allan variance of the given terms at the curve's taus.
+std::vector<double> modelOf(const DeviationCurve& c, const std::array<Coefficient, kNumTerms>& terms) {
+  std::vector<double> m(c.points.size(), 0.0);
+  for (size_t i = 0; i < c.points.size(); ++i)
+    for (int t = 0; t < kNumTerms; ++t) m[i] += terms[static_cast<size_t>(t)].value * terms[static_cast<size_t>(t)].value * noiseTermBasis(t, c.points[i].tau);
+  return m;
+}
+
+// 7. Fit error measures: the reported terms against the input's curve, and each part's own fit.
+void fitErrors(const DeviationCurve& raw_curve, WaveletSplitResult* r) {
   int n_params = 0;
-  for (const auto& c : r.terms) n_params += c.value > 0 ? 1 : 0;
-  r.fit_error = fitError(raw_curve, modelOf(raw_curve, r.terms), std::vector<bool>(raw_curve.points.size(), true),
-                         std::max(1, n_params), FitOptions{}.rms_min_edf);
+  for (const auto& c : r->terms) n_params += c.value > 0 ? 1 : 0;
+  r->fit_error = fitError(raw_curve, modelOf(raw_curve, r->terms), std::vector<bool>(raw_curve.points.size(), true),
+                          std::max(1, n_params), FitOptions{}.rms_min_edf);
+  if (r->denoised_fit.ok) {
+    r->denoised_fit_error.rms_log10 = r->denoised_fit.rms_log10;
+    r->denoised_fit_error.chi2_dof = r->denoised_fit.chi2_dof;
+    r->denoised_fit_error.n_rms = r->denoised_fit.n_rms;
+  }
+  if (r->removed_fit.ok) {
+    r->removed_fit_error.rms_log10 = r->removed_fit.rms_log10;
+    r->removed_fit_error.chi2_dof = r->removed_fit.chi2_dof;
+    r->removed_fit_error.n_rms = r->removed_fit.n_rms;
+  }
+}
+
+}  // namespace
+
+WaveletSplitResult waveletSplit(const std::vector<double>& rate, double tau0, const WaveletSplitOptions& options,
+                                const DeviationCurve* raw_oadev) {
+  validateSplitInputs(rate, tau0, options);
+  const Wavelet w(options.wavelet);
+  const int F = w.dec_len();
+  if (static_cast<int64_t>(rate.size()) < 64 * F)
+    throw std::invalid_argument("waveletSplit: record too short (need at least 64 * filter length samples)");
+
+  WaveletSplitResult r;
+  r.wavelet = options.wavelet;
+  // Wavelet variances of the input (all levels with >= 8 interior coefficients): one deep decomposition serves the
+  // automatic level (its levels with >= 32 coefficients, the same numbers as a separate decomposition) and N.
+  const LevelData lv = levelVariances(rate, w, 8);
+  r.level = options.level > 0 ? options.level : splitLevelFrom(lv);
+  r.split_frequency_hz = 1.0 / (tau0 * std::ldexp(2.0, r.level));
+
+  WdenResult split = splitRecord(rate, options, &r);
+
+  // 2. Allan deviation of each part, and of the input (for the combined fit error).
+  r.denoised_curve = computeDeviation("oadev", split.denoised, InputKind::Rate, tau0, options.deviation);
+  r.removed_curve = computeDeviation("oadev", split.removed, InputKind::Rate, tau0, options.deviation);
+  const DeviationCurve raw_curve =
+      raw_oadev ? *raw_oadev : computeDeviation("oadev", rate, InputKind::Rate, tau0, options.deviation);
+
+  fitParts(tau0, options, &r);
+
+  // 4. Wavelet variances of the input and their responses.
+  const int J = static_cast<int>(lv.var.size());
+  const auto resp = waveletLevelResponses(w, std::max(1, J), tau0);
+  const SplitAngleFactors fac = splitAngleFactors(w, r.level);
+  r.quantization_kept = fac.v_q;
+
+  // 5. Q (angle) and N (wavelet variance), iterated: each uses the other's current value.
+  const AngleVariance av = removedAngleVariance(split.removed, tau0, F, &r);
+  // Longer-tau terms known from the denoised Allan fit (fixed in the level model).
+  LevelModel lm{resp, r.levels, J};
   if (r.denoised_fit.ok) {
-    r.denoised_fit_error.rms_log10 = r.denoised_fit.rms_log10;
-    r.denoised_fit_error.chi2_dof = r.denoised_fit.chi2_dof;
-    r.denoised_fit_error.n_rms = r.denoised_fit.n_rms;
+    if (options.enabled[kBiasInstability]) lm.b2 = std::pow(r.denoised_fit.terms[kBiasInstability].value, 2);
+    if (options.enabled[kRateRandomWalk]) lm.k2 = std::pow(r.denoised_fit.terms[kRateRandomWalk].value, 2);
   }
-  if (r.removed_fit.ok) {
-    r.removed_fit_error.rms_log10 = r.removed_fit.rms_log10;
-    r.removed_fit_error.chi2_dof = r.removed_fit.chi2_dof;
-    r.removed_fit_error.n_rms = r.removed_fit.n_rms;
-  }
+  double n2 = r.n_allan * r.n_allan;
+  if (!(n2 > 0) && J > 0) n2 = lv.var[static_cast<size_t>(J - 1)] * tau0;  // start from the coarsest level
+  describeLevels(lv, J, tau0, &r);
+  const QnEstimate qn = iterateQn(lm, fac, av, tau0, n2, options, &r);
+  recordQn(lm, qn, fac, av, tau0, &r);
+
+  reportCoefficients(options, qn, &r);
+  fitErrors(raw_curve, &r);
   r.ok = r.q_angle > 0 && r.n_wavelet > 0;
   if (!r.ok) r.message = "wavelet split found no quantization or no ARW";
   if (options.keep_signals) {
