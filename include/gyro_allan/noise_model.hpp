@@ -23,12 +23,14 @@ const char* noiseTermUnit(int term);
 double noiseTermBasis(int term, double tau);
 
 /// A coefficient with its uncertainty. supported == false: the data does not support the term; value is 0
-/// and sigma is the 1-sigma upper bound of the coefficient (what it could be and still fit).
+/// and sigma is the upper end of its 68 % interval (what it could be and still fit).
 /// Intervals (same units as value): a supported term has two-sided intervals [lo68, hi68] (68.3 %) and
-/// [lo95, hi95] (95 %); an unsupported one has lo68 = lo95 = 0 and as upper bounds hi68 / hi95 the upper ends of
-/// the two-sided 68.3 % / 95 % intervals of its unconstrained estimate (so [0, hi] holds the truth at least as often
-/// as the two-sided interval would). The coefficient is the square root of its AVAR weight c; intervals are taken on c (where the estimate is
-/// near normal) and mapped through the square root, so they are asymmetric.
+/// [lo95, hi95] (95 %). An unsupported one of the GLS fit has the unified 68.3 % interval of its selection-truncated
+/// estimate (selective.hpp: lo68 > 0 when the estimate came out just below the selection threshold) and the
+/// one-sided 95 % interval [0, hi95]; elsewhere (EDF fit, wavelet split) lo68 = lo95 = 0 and hi68 / hi95 are the
+/// upper ends of the two-sided intervals of its unconstrained estimate. The coefficient is the square root of its
+/// AVAR weight c; intervals are taken on c (where the estimate is near normal) and mapped through the square root, so
+/// they are asymmetric.
 struct Coefficient {
   double value = 0;
   double sigma = 0;

@@ -36,8 +36,8 @@ YAML::Node coefficientNode(const Coefficient& c, const char* unit) {
   n["value"] = num(c.value);
   n["sigma"] = num(c.sigma);
   n["supported"] = c.supported;
-  // Supported: two-sided 68.3 % / 95 % intervals; not supported: [0, upper end of the unconstrained estimate's
-  // two-sided interval] (noise_model.hpp, docs/calibration.md).
+  // Supported: two-sided 68.3 % / 95 % intervals; not supported: the unified 68 % interval (may start above 0) and
+  // the one-sided 95 % [0, hi] (selective.hpp, docs/calibration.md).
   n["interval_68"] = YAML::Node(YAML::NodeType::Sequence);
   n["interval_68"].push_back(num(c.lo68));
   n["interval_68"].push_back(num(c.hi68));
