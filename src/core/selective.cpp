@@ -140,11 +140,12 @@ void droppedIntervalFC(double x, const VarianceModel& v, double threshold, const
     mu_max = std::max(1.2 * selectiveSolve(std::max(x, 0.0), 1e-4, v, ev), std::max(x, 0.0) + 4.0 * s0);
   }
   mu_max = std::max(mu_max, 1e-300);
-  constexpr int kMu = 201, kX = 600;
+  constexpr int kMu = 141, kX = 400;
   std::vector<double> mus(kMu), sd(kMu), lognorm(kMu);
   double s_max = 0;
   for (int k = 0; k < kMu; ++k) {
-    mus[k] = mu_max * k / (kMu - 1);
+    const double u = static_cast<double>(k) / (kMu - 1);
+    mus[k] = mu_max * u * u;  // dense near 0, where a truth far below detection sits
     sd[k] = std::sqrt(std::max(v.at(mus[k]), 1e-300));
     s_max = std::max(s_max, sd[k]);
     // log of the probability of the truncation event, P(X < threshold | mu)
@@ -179,6 +180,7 @@ void droppedIntervalFC(double x, const VarianceModel& v, double threshold, const
     const double r_obs = logf(x, k) - best_obs;
     double total = 0, above = 0;
     for (int j = 0; j < kX; ++j) {
+      if (row[j] - peak < -40.0) continue;  // mass below 4e-18 of the peak's
       const double m = std::exp(row[j] - peak);
       total += m;
       if (row[j] - best[j] > r_obs) above += m;
@@ -191,15 +193,15 @@ void droppedIntervalFC(double x, const VarianceModel& v, double threshold, const
       }
     }
   }
-  const double step = mu_max / (kMu - 1);
   for (int c = 0; c < 2; ++c) {
     if (last[c] < 0) {  // no grid point accepts x (cannot happen for a proper ordering): the best mu's neighbourhood
       lo[c] = 0.0;
-      hi[c] = std::max(x, 0.0) + step;
+      hi[c] = std::max(x, 0.0) + mus[1];
       continue;
     }
-    lo[c] = first[c] == 0 ? 0.0 : std::max(0.0, mus[first[c]] - 0.5 * step);
-    hi[c] = last[c] == kMu - 1 ? mu_max : mus[last[c]] + 0.5 * step;
+    // each accepted grid point stands for the half-way marks to its neighbours
+    lo[c] = first[c] == 0 ? 0.0 : 0.5 * (mus[first[c] - 1] + mus[first[c]]);
+    hi[c] = last[c] == kMu - 1 ? mu_max : 0.5 * (mus[last[c]] + mus[last[c] + 1]);
   }
 }
 
