@@ -514,52 +514,18 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
   po.stage = profileStage;
   PipelineResult pr = runPipeline(std::move(in), po);
   const double tau0 = pr.tau0;
-  meta.stamps = pr.stamps;
-  meta.warnings = pr.warnings;
-  meta.rest_checked = pr.rest_checked;
-  meta.rest = pr.rest;
-  meta.rest_restricted = pr.rest_restricted;
-  meta.rest_from_s = pr.rest_from_s;
-  meta.rest_to_s = pr.rest_to_s;
-  meta.rest_excluded = pr.rest_excluded;
+  setPipelineMeta(pr, &meta);
   const std::vector<AxisAnalysis>& results = pr.gyro;
   const std::vector<AxisAnalysis>& accel_results = pr.accel;
-  const std::vector<double>& accel_means = pr.accel_means;
   const std::string& accel_note = pr.accel_note;
   for (const auto& w : meta.warnings)
     if (!args.quiet) std::cerr << "analyze_bag: warning: " << w << "\n";
 
   try {
     makeDir(args.output);
-    YAML::Node report = buildReport(meta, results);
-    if (!accel_results.empty()) report["accelerometer"] = accelerometerNode(accel_results, accel_means);
-    std::string csv = allanCsv(results);
-    if (!accel_results.empty()) {
-      const std::string acsv = allanCsv(accel_results);
-      csv += acsv.substr(acsv.find('\n') + 1);  // same columns: drop the second header
-    }
-    writeFileAtomic(args.output + "/allan.csv", csv);
-    std::vector<std::string> gyro_axes, accel_axes;
-    std::vector<std::array<Coefficient, kNumTerms>> gyro_c, accel_c;
-    for (const auto& a : results) gyro_axes.push_back(a.axis), gyro_c.push_back(a.coefficients);
-    for (const auto& a : accel_results) accel_axes.push_back(a.axis), accel_c.push_back(a.coefficients);
-    KalibrParams kp = kalibrParams(gyro_axes, gyro_c, accel_axes, accel_c, 1.0 / tau0, meta.topic,
-                                   parseKalibrAxisRule(args.kalibr_axis));
-    for (const auto& a : results) kp.quality.push_back({"gyro", a.axis, a.quality});
-    for (const auto& a : accel_results) kp.quality.push_back({"accelerometer", a.axis, a.quality});
-    if (meta.rest_restricted) {
-      char note[200];
-      std::snprintf(note, sizeof note, "the longest static stretch, %.1f-%.1f s of the record (the sensor moved outside it)",
-                    meta.rest_from_s, meta.rest_to_s);
-      kp.data_note = note;
-    } else if (meta.rest_checked) {
-      kp.data_note = "the whole record, at rest (at-rest check passed)";
-    } else if (opt.input == InputKind::Rate) {
-      kp.data_note = "the whole record; at-rest check skipped (--no-rest-check): valid only if the sensor was static";
-    }
-    writeFileAtomic(args.output + "/imu.yaml", kalibrYaml(kp));
-    if (args.format == "json") writeFileAtomic(args.output + "/report.json", toJson(report));
-    else writeFileAtomic(args.output + "/report.yaml", toYaml(report));
+    writeAnalysisFiles(args.output, meta, pr, args.format, parseKalibrAxisRule(args.kalibr_axis),
+                       opt.input == InputKind::Rate,
+                       "the whole record; at-rest check skipped (--no-rest-check): valid only if the sensor was static");
   } catch (const std::exception& e) {
     std::cerr << "analyze_bag: error: " << e.what() << "\n";
     return kExitOutput;
