@@ -25,8 +25,9 @@ struct OnlineOptions {
   void validate() const;
 };
 
-/// Problems of the raw samples, each sample counted once however many windows it belongs to (sanitation of the
-/// samples new since the previous analysis, with the sample before them as context), and what the analyzer did.
+/// Problems of the raw samples, each sample counted once however many windows it belongs to (the window's own
+/// sanitation counts only the samples new since the previous job: SanitizeOptions::count_from), and what the
+/// analyzer did. Updated by account(), i.e. once per analysed window: they lag the input by up to a hop.
 struct OnlineCounters {
   int64_t samples = 0;          ///< samples given to addSample
   int64_t temperatures = 0;     ///< temperature readings given to addTemperature
@@ -45,12 +46,7 @@ struct OnlineJob {
   int64_t first_ns = 0, last_ns = 0;     ///< stamps of the window's first and last samples [ns, as given]
   int64_t origin_ns = 0;                 ///< stamps in `input` are relative to this (first non-zero stamp - 1 s)
   PipelineInput input;
-  PipelineOptions options;
-  /// The samples new since the previous job (preceded by one earlier sample as context when there is one), for the
-  /// cumulative counters: relative stamps [s] and gyro values.
-  std::vector<double> new_t;
-  std::array<std::vector<double>, 3> new_v;
-  bool new_has_context = false;
+  PipelineOptions options;  ///< options.sanitize.count_from = the first sample new since the previous job
 };
 
 struct OnlineResult {
@@ -60,7 +56,6 @@ struct OnlineResult {
   std::string error;
   PipelineResult result;                 ///< when ok
   StampReport new_samples;               ///< sanitation counts of the samples new since the previous job
-  bool new_has_context = false;          ///< new_samples includes one earlier sample as context
 };
 
 class OnlineAnalyzer {
@@ -111,8 +106,6 @@ class OnlineAnalyzer {
   std::array<int64_t, 3> recent_{{0, 0, 0}};  ///< last three non-zero stamps (their median is "now")
   int recent_n_ = 0, recent_pos_ = 0;
   size_t uncounted_ = 0;                       ///< samples at the end of the window not yet in a job
-  bool have_context_ = false;                  ///< the sample before the uncounted ones
-  Raw context_{};
   bool have_hop_ = false;
   int64_t next_hop_ns_ = 0;
   int64_t sequence_ = 0;

@@ -59,7 +59,9 @@ struct PipelineResult {
 
 /// Runs the pipeline on one record (consumed). Throws std::invalid_argument when the record is not analysable (too
 /// few valid samples, moving without a usable static stretch, too short for any Allan point), with a one-line reason.
-PipelineResult runPipeline(PipelineInput&& input, const PipelineOptions& options);
+/// `counted`, when given, receives the sanitation's SanitizedSeries::counted (problems of the input samples from
+/// options.sanitize.count_from on) as soon as it is known, also when the record then proves not analysable.
+PipelineResult runPipeline(PipelineInput&& input, const PipelineOptions& options, StampReport* counted = nullptr);
 
 /// The note and verdict of an axis analysed over a static stretch only (the pipeline applies it itself).
 void noteStaticStretch(const PipelineResult& r, AxisAnalysis* a);

@@ -142,26 +142,8 @@ OnlineJob OnlineAnalyzer::takeJob() {
     in.temperature_t.push_back(nsToSeconds(tv.first - job.origin_ns));
     in.temperature.push_back(tv.second);
   }
-  // The samples new since the previous job, after the last clean sample before them (context for gaps).
-  auto rel = [&](int64_t ns) { return ns == 0 ? 0.0 : nsToSeconds(ns - job.origin_ns); };
-  auto push_new = [&](const Raw& r) {
-    job.new_t.push_back(rel(r.ns));
-    for (size_t k = 0; k < 3; ++k) job.new_v[k].push_back(r.g[k]);
-  };
-  if (have_context_ && uncounted_ > 0) {
-    push_new(context_);
-    job.new_has_context = true;
-  }
-  for (size_t i = window_.size() - std::min(uncounted_, window_.size()); i < window_.size(); ++i) push_new(window_[i]);
+  job.options.sanitize.count_from = window_.size() - std::min(uncounted_, window_.size());
   uncounted_ = 0;
-  for (size_t i = window_.size(); i-- > 0;) {
-    const Raw& r = window_[i];
-    if (r.ns != 0 && std::isfinite(r.g[0]) && std::isfinite(r.g[1]) && std::isfinite(r.g[2])) {
-      context_ = r;
-      have_context_ = true;
-      break;
-    }
-  }
   next_hop_ns_ = now_ns() + secondsToNs(options_.hop_s);
   have_hop_ = true;
   return job;
@@ -172,17 +154,8 @@ OnlineResult OnlineAnalyzer::run(OnlineJob&& job) {
   out.sequence = job.sequence;
   out.first_ns = job.first_ns;
   out.last_ns = job.last_ns;
-  out.new_has_context = job.new_has_context;
-  if (!job.new_t.empty()) {
-    try {
-      out.new_samples =
-          sanitize(job.new_t, {&job.new_v[0], &job.new_v[1], &job.new_v[2]}, job.options.sanitize).report;
-    } catch (const std::exception&) {
-      // cannot happen with equal lengths and a valid gap factor; the counters then miss this hop's problems
-    }
-  }
   try {
-    out.result = runPipeline(std::move(job.input), job.options);
+    out.result = runPipeline(std::move(job.input), job.options, &out.new_samples);
     out.ok = true;
   } catch (const std::exception& e) {
     out.error = e.what();
@@ -216,7 +189,6 @@ void OnlineAnalyzer::reset(bool counters) {
   recent_n_ = 0;
   recent_pos_ = 0;
   uncounted_ = 0;
-  have_context_ = false;
   have_hop_ = false;
   sequence_ = 0;
   if (counters) counters_ = OnlineCounters();

@@ -139,7 +139,7 @@ void runTaskGraph(const std::vector<std::function<void()>>& tasks, const std::ve
     if (e) std::rethrow_exception(e);
 }
 
-PipelineResult runPipeline(PipelineInput&& in, const PipelineOptions& options) {
+PipelineResult runPipeline(PipelineInput&& in, const PipelineOptions& options, StampReport* counted) {
   PipelineResult meta;
   const AnalysisOptions& opt = options.analysis;
   const SanitizeOptions& so = options.sanitize;
@@ -175,6 +175,7 @@ PipelineResult runPipeline(PipelineInput&& in, const PipelineOptions& options) {
   releaseFreed();
   profileStage("sanitize");
   meta.stamps = ss.report;
+  if (counted) *counted = ss.counted;
   meta.warnings = ss.report.warnings();
   if (ss.report.kept < 3 || !(ss.report.nominal_period_s > 0))
     throw std::invalid_argument("too few valid samples (" + std::to_string(ss.report.kept) + " of " +

@@ -323,6 +323,13 @@ SanitizedSeries sanitizeImpl(const std::vector<double>& t, const std::vector<con
   SanitizedSeries out;
   StampReport& rep = out.report;
   rep.input = static_cast<int64_t>(t.size());
+  // Problems of the input samples from options.count_from on, counted again in out.counted (OnlineAnalyzer: only the
+  // samples new since its previous window).
+  StampReport& from = out.counted;
+  const size_t count_from = options.count_from;
+  from.input = static_cast<int64_t>(t.size() > count_from ? t.size() - count_from : 0);
+  auto counts = [count_from](size_t input_index) { return input_index >= count_from; };
+  std::vector<uint32_t> kept_input;  // input index of each kept sample, when out.kept is not kept and count_from > 0
 
   // Pass 1: drop non-finite values and zero or non-finite stamps.
   if (t.size() >= (size_t(1) << 32)) throw std::invalid_argument("sanitize: more than 2^32 samples");
@@ -333,10 +340,12 @@ SanitizedSeries sanitizeImpl(const std::vector<double>& t, const std::vector<con
     for (const auto* a : axes) finite = finite && std::isfinite((*a)[i]);
     if (!finite) {
       ++rep.non_finite;
+      if (counts(i)) ++from.non_finite;
       continue;
     }
     if (t[i] == 0) {
       ++rep.zero_stamp;
+      if (counts(i)) ++from.zero_stamp;
       continue;
     }
     idx.push_back(static_cast<uint32_t>(i));
@@ -348,6 +357,7 @@ SanitizedSeries sanitizeImpl(const std::vector<double>& t, const std::vector<con
     for (size_t k = 0; k < idx.size(); ++k) {
       if (k + 1 < idx.size() && t[idx[k]] > t[idx[k + 1]] && (kept == 0 || t[idx[kept - 1]] < t[idx[k + 1]])) {
         ++rep.out_of_order;
+        if (counts(idx[k])) ++from.out_of_order;
         continue;
       }
       idx[kept++] = idx[k];
@@ -375,6 +385,10 @@ SanitizedSeries sanitizeImpl(const std::vector<double>& t, const std::vector<con
         // Too short to carry a difference: its samples are dropped and counted as missing time.
         for (size_t j = seg_start; j < end; ++j) {
           ++rep.short_segment;
+          // the sample popped now (the last kept one), by its input index
+          const size_t in_index = !out.kept.empty() ? out.kept.back() : !kept_input.empty() ? kept_input.back() : count_from;
+          if (counts(in_index)) ++from.short_segment;
+          if (!kept_input.empty()) kept_input.pop_back();
           out.t.pop_back();
           for (auto& a : out.v)
             if (!a.empty()) a.pop_back();
@@ -400,14 +414,15 @@ SanitizedSeries sanitizeImpl(const std::vector<double>& t, const std::vector<con
   int64_t first_keep_k = 0, last_keep_k = 0;
   auto handle = [&](const StampDecision& d) {
     switch (d.verdict) {
-      case StampVerdict::Duplicate: ++rep.duplicate; return;
-      case StampVerdict::OutOfOrder: ++rep.out_of_order; return;
-      case StampVerdict::TooClose: ++rep.too_close; return;
+      case StampVerdict::Duplicate: ++rep.duplicate, from.duplicate += counts(d.tag); return;
+      case StampVerdict::OutOfOrder: ++rep.out_of_order, from.out_of_order += counts(d.tag); return;
+      case StampVerdict::TooClose: ++rep.too_close, from.too_close += counts(d.tag); return;
       case StampVerdict::Keep: break;
     }
     if (have_prev && d.missing > 0) {
       ++rep.gaps;
       rep.missing_samples += d.missing;
+      if (counts(d.tag)) ++from.gaps, from.missing_samples += d.missing;  // the gap before a counted sample
       closeSegment(out.t.size());
     }
     if (n_keep++ % lag_step == 0) lags.push_back(static_cast<float>(d.lag));
@@ -432,6 +447,7 @@ SanitizedSeries sanitizeImpl(const std::vector<double>& t, const std::vector<con
     out.t.push_back(t[i]);
     if (keep_values) {
       for (size_t a = 0; a < axes.size(); ++a) out.v[a].push_back((*axes[a])[i]);
+      if (count_from > 0) kept_input.push_back(static_cast<uint32_t>(i));
     } else {
       out.kept.push_back(static_cast<uint32_t>(i));
     }
@@ -452,7 +468,11 @@ SanitizedSeries sanitizeImpl(const std::vector<double>& t, const std::vector<con
     d.stamp = t[idx[0]];
     d.tag = idx[0];
     handle(d);
-    for (size_t k = 1; k < idx.size(); ++k) ++(t[idx[k]] == t[idx[0]] ? rep.duplicate : rep.out_of_order);
+    for (size_t k = 1; k < idx.size(); ++k) {
+      const bool dup = t[idx[k]] == t[idx[0]];
+      ++(dup ? rep.duplicate : rep.out_of_order);
+      if (counts(idx[k])) ++(dup ? from.duplicate : from.out_of_order);
+    }
   }
   closeSegment(out.t.size());
   std::vector<uint32_t>().swap(idx);
