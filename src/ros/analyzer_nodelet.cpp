@@ -27,9 +27,8 @@ AnalyzerNodelet::~AnalyzerNodelet() {
 void AnalyzerNodelet::onInit() {
   ros::NodeHandle& nh = getNodeHandle();
   ros::NodeHandle& pnh = getPrivateNodeHandle();
-  std::vector<std::string> problems;
-  p_ = loadAnalyzerParams(pnh, &problems);
-  for (const std::string& w : problems) NODELET_WARN("gyro_allan analyzer: %s", w.c_str());
+  p_ = loadAnalyzerParams(pnh, &param_problems_);
+  for (const std::string& w : param_problems_) NODELET_WARN("gyro_allan analyzer: %s", w.c_str());
   oa_ = std::make_unique<OnlineAnalyzer>(p_.online);
 
   noise_pub_ = pnh.advertise<NoiseReport>("noise", 10, true);  // latched: a late subscriber gets the last result
@@ -48,6 +47,7 @@ void AnalyzerNodelet::onInit() {
   updater_->add("input values", [this](Wrapper& s) { diagValues(diagState(), params(), &recent_, s); });
   updater_->add("window", [this](Wrapper& s) { diagWindow(diagState(), params(), &recent_, s); });
   updater_->add("motion", [this](Wrapper& s) { diagMotion(diagState(), s); });
+  updater_->add("parameters", [this](Wrapper& s) { diagParams(diagState(), s); });
   updater_->add("fit quality", [this](Wrapper& s) { diagFit(diagState(), params(), s); });
   updater_->add("quality verdict", [this](Wrapper& s) { diagQuality(diagState(), s); });
   for (int t = 0; t < kNumTerms; ++t)
@@ -232,6 +232,7 @@ void AnalyzerNodelet::reconfigure(AnalyzerConfig& c, uint32_t) {
   const std::string problem = applyConfig(c, &p);
   if (!problem.empty()) {
     NODELET_ERROR("gyro_allan analyzer: reconfigure refused: %s", problem.c_str());
+    param_problems_.push_back("reconfigure refused: " + problem);
     c = toConfig(p_);
     return;
   }
@@ -275,6 +276,7 @@ DiagState AnalyzerNodelet::diagState() {
   s.last_report = last_report_;
   s.source = source_;
   s.other_source = other_source_;
+  s.param_problems = param_problems_;
   return s;
 }
 

@@ -62,6 +62,7 @@ class AnalyzerNodelet : public nodelet::Nodelet {
   std::mutex mutex_;  ///< guards everything below and oa_
   std::string source_, frame_id_, topic_;
   uint64_t other_source_ = 0;
+  std::vector<std::string> param_problems_;
   bool hwid_set_ = false;
   // worker
   std::condition_variable cv_;

@@ -428,6 +428,8 @@ void diagStamps(const DiagState& s, const AnalyzerParams& p, RecentProblems* rp,
   stat.add("missing samples (total)", c.missing_samples);
   stat.add("short segments dropped (total)", c.short_segment);
   stat.add("other source ignored (total)", s.other_source);
+  stat.add("expected rate (Hz, 0 = from the stamps)", p.online.pipeline.sanitize.nominal_rate_hz);
+  stat.add("gap factor", p.online.pipeline.sanitize.gap_factor);
   if (s.have_result && s.last.ok) {
     const StampReport& st = s.last.result.stamps;
     stat.add("nominal rate (Hz)", st.rate_hz);
@@ -475,6 +477,13 @@ void diagWindow(const DiagState& s, const AnalyzerParams& p, RecentProblems* rp,
   stat.add("hops skipped, analysis busy (total)", c.skipped_hops);
   stat.add("samples aged out uncounted (total)", c.aged_out);
   if (s.have_good) stat.add("analysed samples (last)", s.last_report.samples);
+}
+
+void diagParams(const DiagState& s, diagnostic_updater::DiagnosticStatusWrapper& stat) {
+  if (s.param_problems.empty()) return stat.summary(diagnostic_msgs::DiagnosticStatus::OK, "parameters ok");
+  stat.summary(diagnostic_msgs::DiagnosticStatus::WARN,
+               std::to_string(s.param_problems.size()) + " parameter problems (defaults used): " + s.param_problems.front());
+  for (size_t i = 0; i < s.param_problems.size(); ++i) stat.add("problem " + std::to_string(i + 1), s.param_problems[i]);
 }
 
 void diagMotion(const DiagState& s, diagnostic_updater::DiagnosticStatusWrapper& stat) {

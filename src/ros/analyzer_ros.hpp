@@ -72,6 +72,7 @@ struct DiagState {
   NoiseReport last_report;         ///< the last published ~noise
   std::string source;              ///< "imu", "angle" or "" while waiting
   uint64_t other_source = 0;       ///< messages of the other input topic ignored
+  std::vector<std::string> param_problems;  ///< from loading and refused reconfigures
 };
 
 /// Per-class "recently" tracking of cumulative counters for WARN levels (ROS time).
@@ -91,6 +92,7 @@ void diagValues(const DiagState& s, const AnalyzerParams& p, RecentProblems* rp,
 void diagWindow(const DiagState& s, const AnalyzerParams& p, RecentProblems* rp,
                 diagnostic_updater::DiagnosticStatusWrapper& stat);
 void diagMotion(const DiagState& s, diagnostic_updater::DiagnosticStatusWrapper& stat);
+void diagParams(const DiagState& s, diagnostic_updater::DiagnosticStatusWrapper& stat);
 void diagFit(const DiagState& s, const AnalyzerParams& p, diagnostic_updater::DiagnosticStatusWrapper& stat);
 void diagQuality(const DiagState& s, diagnostic_updater::DiagnosticStatusWrapper& stat);
 void diagTerm(int term, const DiagState& s, const AnalyzerParams& p, diagnostic_updater::DiagnosticStatusWrapper& stat);
