@@ -333,7 +333,8 @@ TEST(NodeletConvergence, ConvergesReactsAndRecovers) {
   EXPECT_EQ(h.level("motion"), WARN) << h.message("motion");
   h.moving(false);
   EXPECT_EQ(h.reports(), during) << "an answer was published while the window held the motion";
-  EXPECT_TRUE(h.publishUntil(30.0, [&] { return h.reports() > during; })) << "no answer after the motion";
+  // (the motion leaves the 20 s window after 20 s of stamps; on a loaded machine the publisher runs behind real time)
+  EXPECT_TRUE(h.publishUntil(60.0, [&] { return h.reports() > during; })) << "no answer after the motion";
   EXPECT_GE(h.lastReport().samples, 19000) << "the window after the motion holds 20 s of static data";
   EXPECT_TRUE(h.publishUntil(15.0, [&] { return h.level("motion") == OK && h.reports() >= during + 3; }))
       << "after motion: motion '" << h.message("motion") << "', reports " << h.reports() - during;

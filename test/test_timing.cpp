@@ -235,4 +235,12 @@ TEST(Sanitize, CountFromCountsOnlyTheLaterSamplesProblems) {
   EXPECT_EQ(s.counted.gaps, 3);
   EXPECT_EQ(s.counted.missing_samples, 5 + 2);
   EXPECT_EQ(s.counted.input, static_cast<int64_t>(t.size()) - 600);
+  o.count_to = 800;  // input index of sample 799: the NaN at 700 (index 701) only, with its empty slot
+  const SanitizedSeries u = sanitize(t, {&x}, o);
+  EXPECT_EQ(u.counted.non_finite, 1);
+  EXPECT_EQ(u.counted.zero_stamp, 0);
+  EXPECT_EQ(u.counted.duplicate, 0);
+  EXPECT_EQ(u.counted.gaps, 1);
+  EXPECT_EQ(u.counted.missing_samples, 1);
+  EXPECT_EQ(u.counted.input, 200);
 }

@@ -27,7 +27,8 @@ struct OnlineOptions {
 
 /// Problems of the raw samples, each sample counted once however many windows it belongs to (the window's own
 /// sanitation counts only the samples new since the previous job: SanitizeOptions::count_from), and what the
-/// analyzer did. Updated by account(), i.e. once per analysed window: they lag the input by up to a hop.
+/// analyzer did. Updated by account(), i.e. once per analysed window: they lag the input by up to a hop plus the
+/// stamp grid's lookahead (max(lookahead_s, 64 periods)).
 struct OnlineCounters {
   int64_t samples = 0;          ///< samples given to addSample
   int64_t temperatures = 0;     ///< temperature readings given to addTemperature
@@ -46,7 +47,9 @@ struct OnlineJob {
   int64_t first_ns = 0, last_ns = 0;     ///< stamps of the window's first and last samples [ns, as given]
   int64_t origin_ns = 0;                 ///< stamps in `input` are relative to this (first non-zero stamp - 1 s)
   PipelineInput input;
-  PipelineOptions options;  ///< options.sanitize.count_from = the first sample new since the previous job
+  /// options.sanitize.count_from/count_to: the samples whose problems this job counts (new since the previous job,
+  /// but not the newest max(lookahead_s, 64 periods), which the stamp grid decides with less information)
+  PipelineOptions options;
 };
 
 struct OnlineResult {
@@ -109,6 +112,7 @@ class OnlineAnalyzer {
   bool have_hop_ = false;
   int64_t next_hop_ns_ = 0;
   int64_t sequence_ = 0;
+  double last_tau0_ = 0;                       ///< period of the last analysed window (0 before)
 };
 
 }  // namespace gyro_allan

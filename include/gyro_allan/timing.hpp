@@ -4,6 +4,7 @@
 #pragma once
 
 #include <array>
+#include <cstddef>
 #include <cstdint>
 #include <deque>
 #include <string>
@@ -67,7 +68,8 @@ struct SanitizedSeries {
   /// The same by stamp: the kept samples with first <= t <= last (needs `t`).
   int64_t restrictToTime(double first, double last);
   /// The problem counts (input, non_finite ... short_segment, gaps, missing_samples) of the input samples with index
-  /// >= SanitizeOptions::count_from only (a gap counts with the sample after it); equal to `report`'s when 0.
+  /// in [SanitizeOptions::count_from, count_to) only (a gap counts with the sample after it); equal to `report`'s
+  /// by default.
   StampReport counted;
 };
 
@@ -81,6 +83,7 @@ struct SanitizeOptions {
   /// SanitizedSeries::counted counts the problems of input samples from this index on (OnlineAnalyzer: the samples
   /// new since its previous window, so that each sample's problem is counted once over overlapping windows).
   size_t count_from = 0;
+  size_t count_to = SIZE_MAX;   ///< ... up to this index, exclusive
 };
 
 /// Sampler period from stamps alone: the median over blocks of consecutive stamps of (last - first) / (count - 1).

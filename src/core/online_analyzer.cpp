@@ -142,8 +142,17 @@ OnlineJob OnlineAnalyzer::takeJob() {
     in.temperature_t.push_back(nsToSeconds(tv.first - job.origin_ns));
     in.temperature.push_back(tv.second);
   }
-  job.options.sanitize.count_from = window_.size() - std::min(uncounted_, window_.size());
-  uncounted_ = 0;
+  // Problems are counted for the samples new since the previous job, except the newest ones: the stamp grid decides
+  // a sample with the lookahead after it (max(lookahead_s, 64 periods)), which the end of the window lacks, so those
+  // are counted by the next job.
+  const size_t begin = window_.size() - std::min(uncounted_, window_.size());
+  const double hold_s = std::max(options_.pipeline.sanitize.lookahead_s, 64 * last_tau0_);
+  const int64_t hold_from = now_ns() - secondsToNs(hold_s);
+  size_t end = window_.size();
+  while (end > begin && (window_[end - 1].ns == 0 || window_[end - 1].ns > hold_from)) --end;
+  job.options.sanitize.count_from = begin;
+  job.options.sanitize.count_to = end;
+  uncounted_ = window_.size() - end;
   next_hop_ns_ = now_ns() + secondsToNs(options_.hop_s);
   have_hop_ = true;
   return job;
@@ -165,6 +174,7 @@ OnlineResult OnlineAnalyzer::run(OnlineJob&& job) {
 
 void OnlineAnalyzer::account(const OnlineResult& r) {
   ++counters_.analyses;
+  if (r.ok && r.result.tau0 > 0) last_tau0_ = r.result.tau0;
   if (!r.ok) ++counters_.failed;
   const StampReport& s = r.new_samples;
   counters_.non_finite += s.non_finite;

@@ -326,9 +326,9 @@ SanitizedSeries sanitizeImpl(const std::vector<double>& t, const std::vector<con
   // Problems of the input samples from options.count_from on, counted again in out.counted (OnlineAnalyzer: only the
   // samples new since its previous window).
   StampReport& from = out.counted;
-  const size_t count_from = options.count_from;
-  from.input = static_cast<int64_t>(t.size() > count_from ? t.size() - count_from : 0);
-  auto counts = [count_from](size_t input_index) { return input_index >= count_from; };
+  const size_t count_from = options.count_from, count_to = std::min(options.count_to, t.size());
+  from.input = static_cast<int64_t>(count_to > count_from ? count_to - count_from : 0);
+  auto counts = [count_from, count_to](size_t input_index) { return input_index >= count_from && input_index < count_to; };
   std::vector<uint32_t> kept_input;  // input index of each kept sample, when out.kept is not kept and count_from > 0
 
   // Pass 1: drop non-finite values and zero or non-finite stamps.
