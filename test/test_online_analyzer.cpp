@@ -336,3 +336,30 @@ TEST(OnlineAnalyzer, StampGlitchMovesNeitherWindowNorClock) {
   EXPECT_EQ(r.result.stamps.out_of_order, 1);
   EXPECT_EQ(oa.counters().out_of_order, 1);
 }
+
+TEST(OnlineAnalyzer, StampGlitchLeavesTheWindowLikeAnySample) {
+  // A stamp 1000 s ahead at 10 s of a 60 s record, window 30 s: once the glitch is the window's oldest sample it
+  // leaves like any other, so the window stays 30 s long (it must not hold the window open behind it).
+  Injected truth;
+  std::vector<Event> ev = record(60, {}, {}, {}, 0, 0, &truth);
+  OnlineOptions oo;
+  oo.pipeline.analysis.wavelet_split = false;
+  oo.pipeline.analysis.model_check = false;
+  oo.pipeline.rest_check = false;
+  oo.window_s = 30;
+  oo.hop_s = 30;
+  OnlineAnalyzer oa(oo);
+  size_t n = 0;
+  int due = 0;
+  for (Event e : ev) {
+    if (!e.temperature && ++n == 1001) e.ns += 1000LL * 1000000000LL;
+    feed(&oa, e);
+    if (oa.hopDue()) ++due, oa.skipHop();
+  }
+  EXPECT_EQ(due, 1);  // at 30 s only
+  EXPECT_NEAR(static_cast<double>(oa.windowSize()), 3001.0, 1.0);
+  const OnlineResult r = oa.analyzeNow();
+  ASSERT_TRUE(r.ok) << r.error;
+  EXPECT_EQ(r.result.stamps.out_of_order, 0);
+  EXPECT_NEAR(static_cast<double>(r.result.analysed()), 3001.0, 1.0);
+}

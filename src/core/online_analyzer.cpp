@@ -79,8 +79,10 @@ void OnlineAnalyzer::addTemperature(int64_t stamp_ns, double celsius) {
 
 void OnlineAnalyzer::trim() {
   if (recent_n_ == 0) return;
-  const int64_t cutoff = now_ns() - secondsToNs(options_.window_s);
-  auto old = [&](size_t i) { return window_[i].ns != 0 && window_[i].ns < cutoff; };
+  const int64_t now = now_ns(), cutoff = now - secondsToNs(options_.window_s);
+  // Old: before the window. A stamp later than "now" at the front (the oldest arrival) is a forward glitch that has
+  // been in the window for window_s: it leaves too (else it would hold the window open behind it).
+  auto old = [&](size_t i) { return window_[i].ns != 0 && (window_[i].ns < cutoff || (i == 0 && window_[i].ns > now)); };
   while (!window_.empty() &&
          (old(0) || (window_.front().ns == 0 && window_.size() > 1 && old(1)))) {
     if (window_.size() <= uncounted_) {  // never part of a job: its problems are not counted
