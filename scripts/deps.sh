@@ -9,6 +9,8 @@ PKGS=(
   ros-message-generation ros-message-runtime ros-std-msgs ros-sensor-msgs ros-geometry-msgs
   librostest-dev python3-rostest python3-roslaunch python3-rosmaster python3-rosbag rosout
   python3-diagnostic-msgs
+  libdynamic-reconfigure-config-init-mutex-dev python3-dynamic-reconfigure ros-std-srvs libstd-srvs-dev
+  python3-rostopic python3-rosservice
   libgtest-dev libbenchmark-dev libeigen3-dev libyaml-cpp-dev libboost-dev zlib1g-dev
   python3-numpy python3-matplotlib python3-yaml
   libopencv-imgproc-dev

@@ -1,5 +1,6 @@
-// rostest node: AnalyzerNodelet started with absurd parameters (negative window, hop > window, negative rate, too few
-// learn samples, gap factor < 1, ...) stays up, uses the documented replacements and accepts every valid sample.
+// rostest node: AnalyzerNodelet started with absurd parameters (negative window, hop > window, negative rate,
+// gap factor < 1, ...), retired, misspelt and mistyped ones stays up, names every problem in its 'parameters'
+// status, uses the documented replacements and analyses every valid sample.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -11,6 +12,7 @@
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <ros/ros.h>
 #include <sensor_msgs/Imu.h>
+#include <std_srvs/Trigger.h>
 
 namespace {
 
@@ -25,6 +27,9 @@ class Probe {
     for (const auto& s : msg->status) {
       if (s.name.rfind("gyro_allan/badparam_analyzer: ", 0) != 0) continue;
       for (const auto& kv : s.values) values_[kv.key] = kv.value;
+      std::string all = s.message;
+      for (const auto& kv : s.values) all += "\n" + kv.value;
+      texts_[s.name.substr(s.name.find(": ") + 2)] = all;
     }
   }
   double value(const std::string& key) {
@@ -32,13 +37,18 @@ class Probe {
     auto it = values_.find(key);
     return it == values_.end() ? std::nan("") : std::atof(it->second.c_str());
   }
+  /// A status's message and values as one text.
+  std::string text(const std::string& status) {
+    std::lock_guard<std::mutex> l(mutex_);
+    return texts_[status];
+  }
   ros::Publisher pub_;
 
  private:
   ros::NodeHandle nh_;
   ros::Subscriber sub_;
   std::mutex mutex_;
-  std::map<std::string, std::string> values_;
+  std::map<std::string, std::string> values_, texts_;
 };
 
 }  // namespace
@@ -65,12 +75,27 @@ TEST(NodeletBadParams, ComesUpWithDocumentedReplacements) {
     r.sleep();
   }
   const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(10.0);
-  while (ros::WallTime::now() < end && !(p.value("accepted (total)") >= n)) ros::WallDuration(0.1).sleep();
-  EXPECT_EQ(p.value("accepted (total)"), n);
+  while (ros::WallTime::now() < end && !(p.value("samples received (total)") >= n)) ros::WallDuration(0.1).sleep();
+  EXPECT_EQ(p.value("samples received (total)"), n);
   EXPECT_EQ(p.value("window (s)"), 3600.0);     // window_s -5 -> default
   EXPECT_EQ(p.value("hop (s)"), 10.0);          // hop_s > window -> min(10, window)
-  EXPECT_NEAR(p.value("nominal rate (Hz)"), 200.0, 1.0);  // expected_rate_hz < 0 -> learned
-  EXPECT_NEAR(p.value("gap threshold: missing samples late by (s)"), 0.5 / 200.0, 1e-4);  // gap_factor 0.5 -> 1.5
+  EXPECT_EQ(p.value("expected rate (Hz, 0 = from the stamps)"), 0.0);  // expected_rate_hz < 0 -> from the stamps
+  EXPECT_EQ(p.value("gap factor"), 1.5);        // gap_factor 0.5 -> 1.5
+  // Every problem named: invalid values, retired names, a misspelt name, a mistyped value.
+  const std::string all = p.text("parameters");
+  for (const char* name : {"~window_s", "~hop_s", "~expected_rate_hz", "~gap_factor", "~tau_grid", "~input",
+                           "~confidence", "~learn_samples", "~saturation_limit", "~windw_s", "~model_check"})
+    EXPECT_NE(all.find(name), std::string::npos) << name << " not reported in: " << all;
+  EXPECT_NE(all.find("~learn_samples is no longer used"), std::string::npos) << all;
+  EXPECT_NE(all.find("~windw_s is unknown"), std::string::npos) << all;
+  EXPECT_NE(all.find("~model_check must be true or false"), std::string::npos) << all;
+  // ... and it analyses normally: the 6 s window on request (~analyze), at the rate from the stamps.
+  std_srvs::Trigger t;
+  ASSERT_TRUE(ros::service::call("/badparam_analyzer/analyze", t));
+  EXPECT_TRUE(t.response.success) << t.response.message;
+  const ros::WallTime end2 = ros::WallTime::now() + ros::WallDuration(20.0);
+  while (ros::WallTime::now() < end2 && std::isnan(p.value("nominal rate (Hz)"))) ros::WallDuration(0.1).sleep();
+  EXPECT_NEAR(p.value("nominal rate (Hz)"), 200.0, 1.0);
   EXPECT_EQ(p.value("out of order (total)"), 0.0);
   EXPECT_EQ(p.value("gaps (total)"), 0.0);
 }

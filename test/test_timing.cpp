@@ -203,3 +203,44 @@ TEST(StampGrid, EstimatePeriodIgnoresJitterBurstsAndGaps) {
   EXPECT_NEAR(estimatePeriod(p), 0.01, 1e-5);
   EXPECT_EQ(estimatePeriod({}), 0.0);
 }
+
+TEST(Sanitize, CountFromCountsOnlyTheLaterSamplesProblems) {
+  // 1000 samples at 100 Hz with a NaN at 100 and 700, a zero stamp at 200 and 800, a duplicate after 300 and 900 and
+  // 5 missing samples after 400 and 950: with count_from = 600 (index in the input) `counted` holds exactly the
+  // problems from input sample 600 on; with 0 it equals the report.
+  std::vector<double> t, x;
+  for (int i = 0; i < 1000; ++i) {
+    const int k = i + (i > 400 ? 5 : 0) + (i > 950 ? 5 : 0);
+    t.push_back(1.0 + k * 0.01);
+    x.push_back(i == 100 || i == 700 ? std::nan("") : 0.001 * (i % 7));
+    if (i == 200 || i == 800) t.back() = 0;
+    if (i == 300 || i == 900) t.push_back(t.back()), x.push_back(x.back());
+  }
+  SanitizeOptions o;
+  const SanitizedSeries all = sanitize(t, {&x}, o);
+  EXPECT_EQ(all.counted.non_finite, all.report.non_finite);
+  EXPECT_EQ(all.counted.duplicate, all.report.duplicate);
+  EXPECT_EQ(all.counted.gaps, all.report.gaps);
+  EXPECT_EQ(all.counted.missing_samples, all.report.missing_samples);
+  o.count_from = 600;  // input index of sample 599 (one duplicate inserted before it)
+  const SanitizedSeries s = sanitize(t, {&x}, o);
+  EXPECT_EQ(s.report.non_finite, 2);
+  EXPECT_EQ(s.report.zero_stamp, 2);
+  EXPECT_EQ(s.report.duplicate, 2);
+  EXPECT_EQ(s.counted.non_finite, 1);
+  EXPECT_EQ(s.counted.zero_stamp, 1);
+  EXPECT_EQ(s.counted.duplicate, 1);
+  // gaps: the two missing runs, plus the slots of the 4 dropped samples; later half: one run and 2 dropped samples
+  EXPECT_EQ(s.report.gaps, 6);
+  EXPECT_EQ(s.counted.gaps, 3);
+  EXPECT_EQ(s.counted.missing_samples, 5 + 2);
+  EXPECT_EQ(s.counted.input, static_cast<int64_t>(t.size()) - 600);
+  o.count_to = 800;  // input index of sample 799: the NaN at 700 (index 701) only, with its empty slot
+  const SanitizedSeries u = sanitize(t, {&x}, o);
+  EXPECT_EQ(u.counted.non_finite, 1);
+  EXPECT_EQ(u.counted.zero_stamp, 0);
+  EXPECT_EQ(u.counted.duplicate, 0);
+  EXPECT_EQ(u.counted.gaps, 1);
+  EXPECT_EQ(u.counted.missing_samples, 1);
+  EXPECT_EQ(u.counted.input, 200);
+}

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <array>
+#include <cstddef>
 #include <cstdint>
 #include <deque>
 #include <string>
@@ -66,6 +67,10 @@ struct SanitizedSeries {
   int64_t restrictTo(size_t begin, size_t end);
   /// The same by stamp: the kept samples with first <= t <= last (needs `t`).
   int64_t restrictToTime(double first, double last);
+  /// The problem counts (input, non_finite ... short_segment, gaps, missing_samples) of the input samples with index
+  /// in [SanitizeOptions::count_from, count_to) only (a gap counts with the sample after it); equal to `report`'s
+  /// by default.
+  StampReport counted;
 };
 
 struct SanitizeOptions {
@@ -75,6 +80,10 @@ struct SanitizeOptions {
   double nominal_rate_hz = 0;   ///< 0 = estimate from the stamps (estimatePeriod)
   size_t min_segment = 2;       ///< shorter segments are dropped (and counted in gaps)
   double lookahead_s = 2.0;     ///< StampGrid lookahead (at least 32 samples)
+  /// SanitizedSeries::counted counts the problems of input samples from this index on (OnlineAnalyzer: the samples
+  /// new since its previous window, so that each sample's problem is counted once over overlapping windows).
+  size_t count_from = 0;
+  size_t count_to = SIZE_MAX;   ///< ... up to this index, exclusive
 };
 
 /// Sampler period from stamps alone: the median over blocks of consecutive stamps of (last - first) / (count - 1).

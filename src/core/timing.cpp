@@ -324,10 +324,18 @@ void validateSanitizeInputs(const std::vector<double>& t, const std::vector<cons
   if (!(options.gap_factor > 1.0)) throw std::invalid_argument("sanitize: gap_factor must be > 1");
 }
 
+// The problems of the input samples with index in [count_from, count_to), counted again in SanitizedSeries::counted
+// (OnlineAnalyzer: only the samples new since its previous window).
+struct CountedRange {
+  size_t from, to;
+  StampReport* counted;
+  bool counts(size_t input_index) const { return input_index >= from && input_index < to; }
+};
+
 // Pass 1: indices of the samples with finite values and a finite, non-zero stamp (the others counted in rep).
 template <class Axis>
 std::vector<uint32_t> usableSamples(const std::vector<double>& t, const std::vector<const Axis*>& axes,
-                                    StampReport* rep) {
+                                    StampReport* rep, const CountedRange& cr) {
   if (t.size() >= (size_t(1) << 32)) throw std::invalid_argument("sanitize: more than 2^32 samples");
   std::vector<uint32_t> idx;  // 4-byte indices: this runs on whole long records
   idx.reserve(t.size());
@@ -336,10 +344,12 @@ std::vector<uint32_t> usableSamples(const std::vector<double>& t, const std::vec
     for (const auto* a : axes) finite = finite && std::isfinite((*a)[i]);
     if (!finite) {
       ++rep->non_finite;
+      if (cr.counts(i)) ++cr.counted->non_finite;
       continue;
     }
     if (t[i] == 0) {
       ++rep->zero_stamp;
+      if (cr.counts(i)) ++cr.counted->zero_stamp;
       continue;
     }
     idx.push_back(static_cast<uint32_t>(i));
@@ -349,12 +359,14 @@ std::vector<uint32_t> usableSamples(const std::vector<double>& t, const std::vec
 
 // A single stamp ahead of both neighbours (t[k] > t[k+1] while the previous kept stamp < t[k+1]) would otherwise be
 // kept and make every later sample "out of order" until time catches up with it: drop the glitch itself instead.
-void dropStampGlitches(const std::vector<double>& t, std::vector<uint32_t>* index, StampReport* rep) {
+void dropStampGlitches(const std::vector<double>& t, std::vector<uint32_t>* index, StampReport* rep,
+                       const CountedRange& cr) {
   std::vector<uint32_t>& idx = *index;
   size_t kept = 0;  // compacted in place: idx[0, kept) are the kept ones (kept <= k, so idx[k + 1] is untouched)
   for (size_t k = 0; k < idx.size(); ++k) {
     if (k + 1 < idx.size() && t[idx[k]] > t[idx[k + 1]] && (kept == 0 || t[idx[kept - 1]] < t[idx[k + 1]])) {
       ++rep->out_of_order;
+      if (cr.counts(idx[k])) ++cr.counted->out_of_order;
       continue;
     }
     idx[kept++] = idx[k];
@@ -374,6 +386,8 @@ struct GridPass {
   double period;
   SanitizedSeries* out;
   StampReport& rep;
+  CountedRange cr;
+  std::vector<uint32_t> kept_input;  // input index of each kept sample, when out->kept is not kept and counting from > 0
   size_t seg_start = 0;
   // Rate check: the slope of stamp against grid index over chunks of kept samples (about 20 per record), so that
   // neither jitter nor gaps look like a rate change.
@@ -390,9 +404,9 @@ struct GridPass {
   int64_t first_keep_k = 0, last_keep_k = 0;
 
   GridPass(const std::vector<double>& t_, const std::vector<const Axis*>& axes_, const SanitizeOptions& options_,
-           bool keep_values_, double period_, size_t n_usable, SanitizedSeries* out_)
+           bool keep_values_, double period_, size_t n_usable, SanitizedSeries* out_, const CountedRange& cr_)
       : t(t_), axes(axes_), options(options_), keep_values(keep_values_), period(period_), out(out_),
-        rep(out_->report), chunk(std::max<size_t>(64, n_usable / 20)), lag_step(std::max<size_t>(1, n_usable >> 16)) {
+        rep(out_->report), cr(cr_), chunk(std::max<size_t>(64, n_usable / 20)), lag_step(std::max<size_t>(1, n_usable >> 16)) {
     out->t.reserve(n_usable);
     if (keep_values) {
       for (size_t a = 0; a < axes.size(); ++a) out->v[a].reserve(n_usable);
@@ -409,6 +423,10 @@ struct GridPass {
         // Too short to carry a difference: its samples are dropped and counted as missing time.
         for (size_t j = seg_start; j < end; ++j) {
           ++rep.short_segment;
+          // the sample popped now (the last kept one), by its input index
+          const size_t in_index = !out->kept.empty() ? out->kept.back() : !kept_input.empty() ? kept_input.back() : cr.from;
+          if (cr.counts(in_index)) ++cr.counted->short_segment;
+          if (!kept_input.empty()) kept_input.pop_back();
           out->t.pop_back();
           for (auto& a : out->v)
             if (!a.empty()) a.pop_back();
@@ -423,14 +441,15 @@ struct GridPass {
   // One decision of the grid: counted when dropped; kept (after closing the segment at a gap) otherwise.
   void handle(const StampDecision& d) {
     switch (d.verdict) {
-      case StampVerdict::Duplicate: ++rep.duplicate; return;
-      case StampVerdict::OutOfOrder: ++rep.out_of_order; return;
-      case StampVerdict::TooClose: ++rep.too_close; return;
+      case StampVerdict::Duplicate: ++rep.duplicate, cr.counted->duplicate += cr.counts(d.tag); return;
+      case StampVerdict::OutOfOrder: ++rep.out_of_order, cr.counted->out_of_order += cr.counts(d.tag); return;
+      case StampVerdict::TooClose: ++rep.too_close, cr.counted->too_close += cr.counts(d.tag); return;
       case StampVerdict::Keep: break;
     }
     if (have_prev && d.missing > 0) {
       ++rep.gaps;
       rep.missing_samples += d.missing;
+      if (cr.counts(d.tag)) ++cr.counted->gaps, cr.counted->missing_samples += d.missing;  // the gap before a counted sample
       closeSegment(out->t.size());
     }
     if (n_keep++ % lag_step == 0) lags.push_back(static_cast<float>(d.lag));
@@ -455,6 +474,7 @@ struct GridPass {
     out->t.push_back(t[i]);
     if (keep_values) {
       for (size_t a = 0; a < axes.size(); ++a) out->v[a].push_back((*axes[a])[i]);
+      if (cr.from > 0 || cr.to < t.size()) kept_input.push_back(static_cast<uint32_t>(i));
     } else {
       out->kept.push_back(static_cast<uint32_t>(i));
     }
@@ -478,7 +498,11 @@ struct GridPass {
       d.stamp = t[idx[0]];
       d.tag = idx[0];
       handle(d);
-      for (size_t k = 1; k < idx.size(); ++k) ++(t[idx[k]] == t[idx[0]] ? rep.duplicate : rep.out_of_order);
+      for (size_t k = 1; k < idx.size(); ++k) {
+        const bool dup = t[idx[k]] == t[idx[0]];
+        ++(dup ? rep.duplicate : rep.out_of_order);
+        if (cr.counts(idx[k])) ++(dup ? cr.counted->duplicate : cr.counted->out_of_order);
+      }
     }
     closeSegment(out->t.size());
   }
@@ -520,14 +544,16 @@ SanitizedSeries sanitizeImpl(const std::vector<double>& t, const std::vector<con
   SanitizedSeries out;
   StampReport& rep = out.report;
   rep.input = static_cast<int64_t>(t.size());
-  std::vector<uint32_t> idx = usableSamples(t, axes, &rep);
-  dropStampGlitches(t, &idx, &rep);
+  const CountedRange cr{options.count_from, std::min(options.count_to, t.size()), &out.counted};
+  out.counted.input = static_cast<int64_t>(cr.to > cr.from ? cr.to - cr.from : 0);
+  std::vector<uint32_t> idx = usableSamples(t, axes, &rep, cr);
+  dropStampGlitches(t, &idx, &rep, cr);
   // Nominal period: given, or the median block slope of the stamps (robust to jitter and bursts).
   double period = options.nominal_rate_hz > 0 ? 1.0 / options.nominal_rate_hz : 0.0;
   if (period <= 0) {
     period = estimatePeriodImpl(idx.size(), [&](size_t k) { return t[idx[k]]; }, 64);
   }
-  GridPass<Axis> pass(t, axes, options, keep_values, period, idx.size(), &out);
+  GridPass<Axis> pass(t, axes, options, keep_values, period, idx.size(), &out, cr);
   pass.run(idx);
   std::vector<uint32_t>().swap(idx);
   // Nothing dropped (the usual case): the kept index is the identity and is not stored.

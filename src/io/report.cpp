@@ -576,4 +576,50 @@ void writeFileAtomic(const std::string& path, const std::string& content) {
   }
 }
 
+void setPipelineMeta(const PipelineResult& r, ReportMeta* meta) {
+  meta->stamps = r.stamps;
+  meta->warnings = r.warnings;
+  meta->rest_checked = r.rest_checked;
+  meta->rest = r.rest;
+  meta->rest_restricted = r.rest_restricted;
+  meta->rest_from_s = r.rest_from_s;
+  meta->rest_to_s = r.rest_to_s;
+  meta->rest_excluded = r.rest_excluded;
+}
+
+void writeAnalysisFiles(const std::string& dir, const ReportMeta& meta, const PipelineResult& r,
+                        const std::string& format, KalibrAxisRule rule, bool rate_input,
+                        const std::string& rest_off_note) {
+  const std::vector<AxisAnalysis>& results = r.gyro;
+  const std::vector<AxisAnalysis>& accel_results = r.accel;
+  YAML::Node report = buildReport(meta, results);
+  if (!accel_results.empty()) report["accelerometer"] = accelerometerNode(accel_results, r.accel_means);
+  std::string csv = allanCsv(results);
+  if (!accel_results.empty()) {
+    const std::string acsv = allanCsv(accel_results);
+    csv += acsv.substr(acsv.find('\n') + 1);  // same columns: drop the second header
+  }
+  writeFileAtomic(dir + "/allan.csv", csv);
+  std::vector<std::string> gyro_axes, accel_axes;
+  std::vector<std::array<Coefficient, kNumTerms>> gyro_c, accel_c;
+  for (const auto& a : results) gyro_axes.push_back(a.axis), gyro_c.push_back(a.coefficients);
+  for (const auto& a : accel_results) accel_axes.push_back(a.axis), accel_c.push_back(a.coefficients);
+  KalibrParams kp = kalibrParams(gyro_axes, gyro_c, accel_axes, accel_c, 1.0 / r.tau0, meta.topic, rule);
+  for (const auto& a : results) kp.quality.push_back({"gyro", a.axis, a.quality});
+  for (const auto& a : accel_results) kp.quality.push_back({"accelerometer", a.axis, a.quality});
+  if (meta.rest_restricted) {
+    char note[200];
+    std::snprintf(note, sizeof note, "the longest static stretch, %.1f-%.1f s of the record (the sensor moved outside it)",
+                  meta.rest_from_s, meta.rest_to_s);
+    kp.data_note = note;
+  } else if (meta.rest_checked) {
+    kp.data_note = "the whole record, at rest (at-rest check passed)";
+  } else if (rate_input) {
+    kp.data_note = rest_off_note;
+  }
+  writeFileAtomic(dir + "/imu.yaml", kalibrYaml(kp));
+  if (format == "json") writeFileAtomic(dir + "/report.json", toJson(report));
+  else writeFileAtomic(dir + "/report.yaml", toYaml(report));
+}
+
 }  // namespace gyro_allan

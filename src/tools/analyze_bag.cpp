@@ -36,6 +36,7 @@
 #include "gyro_allan/io/bag_input.hpp"
 #include "gyro_allan/io/report.hpp"
 #include "gyro_allan/kalibr.hpp"
+#include "gyro_allan/pipeline.hpp"
 #include "gyro_allan/rest.hpp"
 #include "gyro_allan/timing.hpp"
 
@@ -369,43 +370,6 @@ std::string inputSummary(const ReportMeta& meta) {
   return out;
 }
 
-/// One line for the user about the spikes removed from one gyro axis, with the with-spikes N alongside.
-std::string spikeWarning(const AxisAnalysis& a) {
-  char buf[400];
-  int len = std::snprintf(buf, sizeof buf,
-                          "axis %s: %lld spikes removed (samples more than %.3g robust sigmas = %.3g rad/s from their "
-                          "neighbours' median; excess kurtosis %.3g -> %.3g)",
-                          a.axis.c_str(), static_cast<long long>(a.spikes.count), a.spikes.z, a.spikes.threshold,
-                          a.spikes.excess_kurtosis_before, a.spikes.excess_kurtosis_after);
-  const Coefficient &w = a.coefficients_with_spikes[kAngleRandomWalk], &o = a.fit.terms[kAngleRandomWalk];
-  if (a.has_with_spikes && w.supported && o.supported && o.value > 0 && len > 0 && len < static_cast<int>(sizeof buf))
-    std::snprintf(buf + len, sizeof buf - static_cast<size_t>(len),
-                  "; with them N would be %.4g deg/sqrt(h) (x%.3g); --keep-spikes keeps them",
-                  w.value * conventionalFactor(kAngleRandomWalk), w.value / o.value);
-  return buf;
-}
-
-/// Mean of all samples over segments, then removed (accelerometer: gravity; Allan variance ignores constants, the
-/// removal only keeps the accumulated phase small).
-double removeMean(std::vector<std::vector<double>>* segments) {
-  double sum = 0;
-  size_t n = 0;
-  for (const auto& s : *segments)
-    for (double x : s) sum += x, ++n;
-  const double mean = n ? sum / static_cast<double>(n) : 0;
-  for (auto& s : *segments)
-    for (double& x : s) x -= mean;
-  return mean;
-}
-
-/// Gives freed heap pages back to the system between stages (large arrays freed inside the heap would otherwise
-/// stay resident until the heap top is free).
-void releaseFreed() {
-#ifdef __GLIBC__
-  malloc_trim(0);
-#endif
-}
-
 /// GYRO_ALLAN_PROFILE=1: one stderr line per stage with wall time since start, resident and peak memory (for
 /// bench/whole_tool.sh and docs/performance.md).
 void profileStage(const char* stage) {
@@ -429,86 +393,6 @@ void profileStage(const char* stage) {
 #ifdef __GLIBC__
   if (std::getenv("GYRO_ALLAN_PROFILE_MALLOC")) malloc_stats();
 #endif
-}
-
-/// Only the longest static stretch was analysed: said in the axis's notes, and the verdict is judged again with it.
-void noteStaticStretch(const ReportMeta& meta, AxisAnalysis* a) {
-  if (!meta.rest_restricted) return;
-  char buf[200];
-  std::snprintf(buf, sizeof buf, "%s, %.1f-%.1f s (the sensor moved outside it)", kStaticStretchNote,
-                meta.rest_from_s, meta.rest_to_s);
-  a->notes.push_back(buf);
-  a->quality = assessQuality(*a);
-  unboundIntervalsIfBad(a->quality, &a->coefficients);
-}
-
-/// The warning for an axis whose verdict is bad (stderr and report.yaml warnings).
-std::string badFitWarning(const AxisAnalysis& a) {
-  return "axis " + a.axis + ": BAD FIT (" + a.quality.reason +
-         "): its coefficients, and any imu.yaml value it decides, are not a measurement";
-}
-
-/// Runs tasks on up to `jobs` threads (0 = one per core): task k starts once every task in deps[k] has finished,
-/// and a free thread always takes the ready task with the lowest index (so one thread runs them in index order).
-/// After a failure no new task starts; the failure of the lowest-index task is rethrown.
-void runTaskGraph(const std::vector<std::function<void()>>& tasks, const std::vector<std::vector<size_t>>& deps,
-                  int jobs) {
-  const size_t n = tasks.size();
-  size_t workers = jobs > 0 ? static_cast<size_t>(jobs) : std::max(1u, std::thread::hardware_concurrency());
-  workers = std::max<size_t>(1, std::min(workers, n));
-  std::mutex m;
-  std::condition_variable cv;
-  std::vector<int> state(n, 0);  // 0 waiting, 1 running, 2 done
-  std::vector<std::exception_ptr> errors(n);
-  size_t running = 0;
-  bool failed = false;
-  auto ready = [&](size_t k) {
-    for (size_t d : deps[k])
-      if (state[d] != 2) return false;
-    return true;
-  };
-  auto work = [&]() {
-    std::unique_lock<std::mutex> lock(m);
-    for (;;) {
-      size_t pick = n;
-      bool waiting = false;
-      for (size_t k = 0; k < n && !failed; ++k) {
-        if (state[k] != 0) continue;
-        waiting = true;
-        if (ready(k)) {
-          pick = k;
-          break;
-        }
-      }
-      if (pick == n) {
-        // Nothing to start now: leave if nothing ever will be (all started, a failure, or no task running that
-        // could make one ready), else wait for a task to finish.
-        if (!waiting || failed || running == 0) return;
-        cv.wait(lock);
-        continue;
-      }
-      state[pick] = 1;
-      ++running;
-      lock.unlock();
-      try {
-        tasks[pick]();
-      } catch (...) {
-        errors[pick] = std::current_exception();
-      }
-      releaseFreed();  // each stage frees its working arrays; give the pages back before the next one starts
-      lock.lock();
-      state[pick] = 2;
-      --running;
-      if (errors[pick]) failed = true;
-      cv.notify_all();
-    }
-  };
-  std::vector<std::thread> pool;
-  for (size_t w = 1; w < workers; ++w) pool.emplace_back(work);
-  work();
-  for (auto& th : pool) th.join();
-  for (const auto& e : errors)
-    if (e) std::rethrow_exception(e);
 }
 
 int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
@@ -611,260 +495,43 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
     values.resize(3);
     names.resize(3);
   }
-  SanitizedSeries ss;
-  if (compact) {
-    ss = sanitizeCompact(t, {&gyro_c[0], &gyro_c[1], &gyro_c[2]}, so);  // kept indices; values stay compact
-  } else {
-    std::vector<const std::vector<double>*> ptrs;
-    for (const auto& v : values) ptrs.push_back(&v);
-    ss = sanitize(t, ptrs, so);
-    for (auto& v : values) std::vector<double>().swap(v);
-  }
-  const size_t n_stamps = t.size();
-  if (compact) std::vector<double>().swap(t);  // rebuilt from t_c for the accelerometer
-  releaseFreed();
-  profileStage("sanitize");
-  meta.stamps = ss.report;
-  meta.warnings = ss.report.warnings();
-  if (ss.report.kept < 3 || !(ss.report.nominal_period_s > 0))
-    throw std::invalid_argument("too few valid samples (" + std::to_string(ss.report.kept) + " of " +
-                                std::to_string(ss.report.input) + ")");
-  const double tau0 = ss.report.nominal_period_s;
-  // At rest? (rest.hpp) The gyro axes and, when published, the accelerometer, fed sample by sample from their stored
-  // form. A sensor that moved is analysed over its longest static stretch, or not at all.
-  double rest_t0 = 0, rest_t1 = 0;  // the analysed stretch by stamp (for the accelerometer's own sanitation)
-  bool accel_published = false;
-  if (args.accel && compact && !accel[0].empty() && accel[0].size() == n_stamps)
-    for (const auto& v : accel)
-      for (size_t i = 0; i < v.size() && !accel_published; ++i) accel_published = v[i] != 0 && std::isfinite(v[i]);
-  if (opt.input == InputKind::Rate && args.rest_check) {
-    std::vector<size_t> sizes;
-    for (const auto& seg : ss.segments) sizes.push_back(seg.size());
-    const size_t n_axes = compact ? 3 : names.size();
-    // Channel c of sample i of segment k, read-only (called from several threads): gyro axes, then the
-    // accelerometer's, whose NaN samples (the gyro's were dropped by the sanitation) take the last finite value.
-    auto sample = [&](int c, size_t k, size_t i) -> double {
-      const size_t idx = ss.segments[k].begin + i;
-      if (!compact) return ss.v[static_cast<size_t>(c)][idx];
-      const size_t j = ss.kept.empty() ? idx : ss.kept[idx];
-      if (c < 3) return gyro_c[static_cast<size_t>(c)][j];
-      const CompactSeries& a = accel[static_cast<size_t>(c - 3)];
-      for (size_t q = j + 1; q-- > 0;)
-        if (std::isfinite(a[q])) return a[q];
-      return 0.0;
-    };
-    meta.rest = detectRest(static_cast<int>(n_axes), accel_published, tau0, sizes, sample);
-    meta.rest_checked = true;
-    profileStage("rest");
-    if (!meta.rest.at_rest) {
-      const RestInterval st = meta.rest.longest_static;
-      char buf[600];
-      if (!meta.rest.static_usable) {
-        std::snprintf(buf, sizeof buf,
-                      "not at rest: the sensor moved (%s); moving in %.0f %% of the record and no static stretch of "
-                      "%g s (longest %.1f s): noise coefficients need a static recording (--no-rest-check analyses "
-                      "it anyway)",
-                      meta.rest.reason.c_str(), 100 * meta.rest.moving_fraction, RestOptions().min_static_s,
-                      static_cast<double>(st.end - st.begin) * tau0);
-        throw std::invalid_argument(buf);
-      }
-      rest_t0 = ss.t[static_cast<size_t>(st.begin)];
-      rest_t1 = ss.t[static_cast<size_t>(st.end - 1)];
-      meta.rest_restricted = true;
-      meta.rest_from_s = rest_t0 - ss.t.front();
-      meta.rest_to_s = rest_t1 - ss.t.front();
-      meta.rest_excluded = ss.restrictTo(static_cast<size_t>(st.begin), static_cast<size_t>(st.end));
-      std::snprintf(buf, sizeof buf,
-                    "the sensor moved (%s; %.0f %% of the record): only the longest static stretch is analysed, "
-                    "%.1f-%.1f s (%.1f s of %.1f s)",
-                    meta.rest.reason.c_str(), 100 * meta.rest.moving_fraction, meta.rest_from_s, meta.rest_to_s,
-                    meta.rest_to_s - meta.rest_from_s, ss.t.back() - ss.t.front());
-      meta.warnings.push_back(buf);
-    }
-  }
-  const std::vector<std::vector<double>> temperature_segments = ss.interpolateSegments(temp_t, temp_v);
-  // Gyro axes as a task graph on --jobs threads: per axis prepare (oadev + fit), then the wavelet split and the
-  // model check; a free thread takes the earliest ready stage, so axes are worked on in order and at most --jobs
-  // stages (not whole axes) hold working memory at a time.
-  const size_t n_gyro = names.size();
-  std::vector<AxisAnalysis> results(n_gyro);
-  std::vector<std::vector<std::string>> axis_warnings(n_gyro);
-  std::vector<std::unique_ptr<AxisStages>> stages(n_gyro);
-  std::vector<std::function<void()>> tasks;
-  std::vector<std::vector<size_t>> deps;
-  std::vector<double>().swap(ss.t);  // stamps are not needed any more (temperature already interpolated)
-  size_t last_split = SIZE_MAX;
-  std::vector<size_t> split_tasks;
-  for (size_t a = 0; a < n_gyro; ++a) {
-    const size_t prep = tasks.size();
-    tasks.push_back([&, a] {
-      // This axis as doubles (its compact copy is freed), split into segments.
-      std::vector<std::vector<double>> segs;
-      if (compact) {
-        segs = ss.segmentValuesOf(gyro_c[a]);
-        gyro_c[a].clear();
-      } else {
-        segs = ss.takeSegmentValues(static_cast<int>(a));
-      }
-      if (opt.input == InputKind::Rate) {
-        // Saturation warnings here; isolated spikes are removed and reported by the analysis itself (spikes.hpp)
-        // unless --keep-spikes, when they are only warned about as before.
-        ValueAnomalies va;
-        if (segs.size() == 1) {
-          va = detectValueAnomalies(segs[0]);
-        } else {
-          std::vector<double> all;
-          for (const auto& g : segs) all.insert(all.end(), g.begin(), g.end());
-          va = detectValueAnomalies(all);
-        }
-        if (opt.remove_spikes) va.spikes = 0;
-        axis_warnings[a] = va.warnings("axis " + names[a]);
-      }
-      stages[a] = std::make_unique<AxisStages>(names[a], std::move(segs), tau0, opt,
-                                               temperature_segments.empty() ? nullptr : &temperature_segments);
-      stages[a]->prepare();
-    });
-    deps.push_back({});
-    // Splits one at a time: the split holds the most memory (~3.5 records), so two never overlap.
-    tasks.push_back([&, a] { stages[a]->split(); });
-    deps.push_back(last_split == SIZE_MAX ? std::vector<size_t>{prep} : std::vector<size_t>{prep, last_split});
-    last_split = tasks.size() - 1;
-    split_tasks.push_back(last_split);
-    tasks.push_back([&, a] { stages[a]->check(); });
-    deps.push_back({prep});
-    // Finish as soon as both are done: the axis's samples are freed here, not after the whole graph.
-    tasks.push_back([&, a] {
-      results[a] = stages[a]->finish();
-      stages[a].reset();
-      noteStaticStretch(meta, &results[a]);
-    });
-    deps.push_back({tasks.size() - 3, tasks.size() - 2});
-  }
-  // Accelerometer: the same engine, joint fit only (the wavelet split and model check are tuned for gyros and
-  // would double the run time); the mean (gravity) is removed first. Its sanitation and three axes are graph tasks
-  // after the last gyro check, so they run beside the last wavelet split.
-  std::string accel_note;  // why the accelerometer was not analysed (stdout, not a warning: gyro-only IMUs are fine)
-  std::vector<AxisAnalysis> accel_results;
-  std::vector<double> accel_means;
-  std::string accel_error;  // set: not analysed, with this reason
-  if (args.accel && compact && !accel[0].empty() && accel[0].size() == n_stamps) {
-    if (!accel_published) {  // an IMU without accelerometer publishes zeros
-      accel_note = "accelerometer: linear_acceleration is all zero (not published?): not analysed";
-    } else {
-      accel_results.resize(3);
-      accel_means.resize(3);
-    }
-  }
-  AnalysisOptions ao = opt;
-  ao.wavelet_split = false;
-  ao.model_check = false;
-  ao.method = "joint_fit";
-  SanitizedSeries sa;
-  std::vector<std::string> accel_errors(3);
-  if (!accel_results.empty()) {
-    const size_t sanitize_task = tasks.size();
-    tasks.push_back([&] {
-      try {
-        sa = sanitizeCompact(t_c.toSeconds(), {&accel[0], &accel[1], &accel[2]}, so);
-        if (meta.rest_restricted) sa.restrictToTime(rest_t0, rest_t1);  // the gyro's static stretch
-        t_c.clear();
-        std::vector<double>().swap(sa.t);
-      } catch (const std::exception& e) {
-        accel_error = e.what();
-      }
-    });
-    // After the last gyro check and every split but the last: the accelerometer then overlaps only the last split,
-    // when the other axes' samples are already freed.
-    std::vector<size_t> after;
-    if (sanitize_task > 1) after.push_back(sanitize_task - 2);  // the last check (the last task is its finish)
-    if (split_tasks.size() > 1) after.push_back(split_tasks[split_tasks.size() - 2]);
-    deps.push_back(after);
-    for (size_t a = 0; a < 3; ++a) {
-      tasks.push_back([&, a] {
-        if (!accel_error.empty()) return;
-        try {
-          std::vector<std::vector<double>> segs = sa.segmentValuesOf(accel[a]);
-          accel[a].clear();
-          accel_means[a] = removeMean(&segs);
-          AxisStages st("accel_" + names[a], std::move(segs), tau0, ao);
-          st.prepare();
-          accel_results[a] = st.finish();  // joint fit only: no split or model check
-          noteStaticStretch(meta, &accel_results[a]);
-        } catch (const std::exception& e) {
-          accel_errors[a] = e.what();
-        }
-      });
-      deps.push_back({sanitize_task});
-    }
-  }
-  runTaskGraph(tasks, deps, args.jobs);
-  profileStage("axes");
-  for (size_t a = 0; a < n_gyro; ++a) {
-    // A gyro at rest reads Earth rate plus bias: hundreds of deg/s means wrong units or a moving sensor.
-    if (opt.input == InputKind::Rate && std::fabs(results[a].mean) > 1.0)
-      axis_warnings[a].push_back("axis " + names[a] + ": mean rate " + std::to_string(results[a].mean) +
-                                 " rad/s is not a gyro at rest (wrong units or a moving sensor?)");
-  }
-  {
-    const StampReport keep = ss.report;
-    ss = SanitizedSeries();  // free the stamps
-    ss.report = keep;
-  }
-  for (const auto& w : axis_warnings) meta.warnings.insert(meta.warnings.end(), w.begin(), w.end());
-  for (const auto& r : results)
-    if (r.spikes_checked && r.spikes.count > 0) meta.warnings.push_back(spikeWarning(r));
-  for (const auto& r : results)
-    if (r.quality.quality == Quality::Bad) meta.warnings.push_back(badFitWarning(r));
-  for (const auto& e : accel_errors)
-    if (accel_error.empty() && !e.empty()) accel_error = e;
-  if (!accel_error.empty()) {
-    accel_results.clear();
-    accel_means.clear();
-    meta.warnings.push_back("accelerometer not analysed: " + accel_error);
-  }
-  for (const auto& r : accel_results)
-    if (r.quality.quality == Quality::Bad) meta.warnings.push_back(badFitWarning(r));
-  profileStage("analysis");
+  PipelineInput in;
+  in.compact = compact;
+  in.names = std::move(names);
+  in.t = std::move(t);
+  in.values = std::move(values);
+  in.t_c = std::move(t_c);
+  in.gyro_c = std::move(gyro_c);
+  in.accel_c = std::move(accel);
+  in.temperature_t = std::move(temp_t);
+  in.temperature = std::move(temp_v);
+  PipelineOptions po;
+  po.analysis = opt;
+  po.sanitize = so;
+  po.rest_check = args.rest_check;
+  po.accel = args.accel;
+  po.jobs = args.jobs;
+  po.stage = profileStage;
+  PipelineResult pr = runPipeline(std::move(in), po);
+  const double tau0 = pr.tau0;
+  setPipelineMeta(pr, &meta);
+  const std::vector<AxisAnalysis>& results = pr.gyro;
+  const std::vector<AxisAnalysis>& accel_results = pr.accel;
+  const std::string& accel_note = pr.accel_note;
   for (const auto& w : meta.warnings)
     if (!args.quiet) std::cerr << "analyze_bag: warning: " << w << "\n";
 
   try {
     makeDir(args.output);
-    YAML::Node report = buildReport(meta, results);
-    if (!accel_results.empty()) report["accelerometer"] = accelerometerNode(accel_results, accel_means);
-    std::string csv = allanCsv(results);
-    if (!accel_results.empty()) {
-      const std::string acsv = allanCsv(accel_results);
-      csv += acsv.substr(acsv.find('\n') + 1);  // same columns: drop the second header
-    }
-    writeFileAtomic(args.output + "/allan.csv", csv);
-    std::vector<std::string> gyro_axes, accel_axes;
-    std::vector<std::array<Coefficient, kNumTerms>> gyro_c, accel_c;
-    for (const auto& a : results) gyro_axes.push_back(a.axis), gyro_c.push_back(a.coefficients);
-    for (const auto& a : accel_results) accel_axes.push_back(a.axis), accel_c.push_back(a.coefficients);
-    KalibrParams kp = kalibrParams(gyro_axes, gyro_c, accel_axes, accel_c, 1.0 / tau0, meta.topic,
-                                   parseKalibrAxisRule(args.kalibr_axis));
-    for (const auto& a : results) kp.quality.push_back({"gyro", a.axis, a.quality});
-    for (const auto& a : accel_results) kp.quality.push_back({"accelerometer", a.axis, a.quality});
-    if (meta.rest_restricted) {
-      char note[200];
-      std::snprintf(note, sizeof note, "the longest static stretch, %.1f-%.1f s of the record (the sensor moved outside it)",
-                    meta.rest_from_s, meta.rest_to_s);
-      kp.data_note = note;
-    } else if (meta.rest_checked) {
-      kp.data_note = "the whole record, at rest (at-rest check passed)";
-    } else if (opt.input == InputKind::Rate) {
-      kp.data_note = "the whole record; at-rest check skipped (--no-rest-check): valid only if the sensor was static";
-    }
-    writeFileAtomic(args.output + "/imu.yaml", kalibrYaml(kp));
-    if (args.format == "json") writeFileAtomic(args.output + "/report.json", toJson(report));
-    else writeFileAtomic(args.output + "/report.yaml", toYaml(report));
+    writeAnalysisFiles(args.output, meta, pr, args.format, parseKalibrAxisRule(args.kalibr_axis),
+                       opt.input == InputKind::Rate,
+                       "the whole record; at-rest check skipped (--no-rest-check): valid only if the sensor was static");
   } catch (const std::exception& e) {
     std::cerr << "analyze_bag: error: " << e.what() << "\n";
     return kExitOutput;
   }
   if (!args.quiet) {
-    const int64_t analysed = ss.report.kept - meta.rest_excluded;
+    const int64_t analysed = pr.analysed();
     std::printf("%s%s: %lld samples, %.6g Hz, %.1f s, tau grid %s\n", meta.sources.front().c_str(),
                 meta.topic.empty() ? "" : (" " + meta.topic).c_str(), static_cast<long long>(analysed), 1.0 / tau0,
                 static_cast<double>(analysed) * tau0, meta.tau_grid.c_str());

@@ -8,6 +8,8 @@
 #include <yaml-cpp/yaml.h>
 
 #include "gyro_allan/analysis.hpp"
+#include "gyro_allan/kalibr.hpp"
+#include "gyro_allan/pipeline.hpp"
 #include "gyro_allan/rest.hpp"
 #include "gyro_allan/timing.hpp"
 
@@ -46,6 +48,15 @@ std::string summaryTable(const std::vector<AxisAnalysis>& axes);
 YAML::Node accelerometerNode(const std::vector<AxisAnalysis>& axes, const std::vector<double>& means);
 /// Summary lines of the accelerometer in conventional units (m/s/sqrt(h), ug, m/s/h/sqrt(h)).
 std::string accelSummaryTable(const std::vector<AxisAnalysis>& axes);
+/// Copies a pipeline result's stamp report, warnings and at-rest decision into meta.
+void setPipelineMeta(const PipelineResult& r, ReportMeta* meta);
+/// The files of one analysis, as analyze_bag writes them: DIR/report.yaml (format "yaml") or DIR/report.json
+/// ("json"), DIR/allan.csv (gyro, then accelerometer rows) and DIR/imu.yaml (Kalibr, `rule` across axes). DIR must
+/// exist. rest_off_note: imu.yaml's data note for rate input analysed without the at-rest check. Throws
+/// std::runtime_error naming the file that cannot be written.
+void writeAnalysisFiles(const std::string& dir, const ReportMeta& meta, const PipelineResult& r,
+                        const std::string& format, KalibrAxisRule rule, bool rate_input,
+                        const std::string& rest_off_note);
 /// Writes content to path via path.tmp + rename. Throws std::runtime_error naming the path.
 void writeFileAtomic(const std::string& path, const std::string& content);
 

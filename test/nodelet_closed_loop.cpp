@@ -1,0 +1,264 @@
+// rostest node for AnalyzerNodelet's closed loop (issue 15): the nodelet, fed a bag's messages, publishes the effect,
+// the before/after fit error and the coefficients analyze_bag reports for the same samples; dynparam changes the
+// window live; ~save writes report.yaml, allan.csv and imu.yaml; a late ~noise subscriber gets the last result.
+#include <gtest/gtest.h>
+
+#include <sys/stat.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <map>
+#include <mutex>
+#include <string>
+
+#include <diagnostic_msgs/DiagnosticArray.h>
+#include <dynamic_reconfigure/Reconfigure.h>
+#include <gyro_allan/NoiseReport.h>
+#include <ros/ros.h>
+#include <rosbag/bag.h>
+#include <rosbag/view.h>
+#include <sensor_msgs/Imu.h>
+#include <sensor_msgs/Temperature.h>
+#include <std_srvs/Trigger.h>
+#include <yaml-cpp/yaml.h>
+
+namespace {
+
+const std::string kNode = "loop_analyzer";
+const std::string kOut = std::string(GYRO_ALLAN_TEST_OUT) + "/nodelet_closed_loop";
+const std::string kTools = GYRO_ALLAN_TOOL_DIR;
+
+int sh(const std::string& cmd) { return std::system(cmd.c_str()); }
+
+class Loop {
+ public:
+  Loop() {
+    imu_pub_ = nh_.advertise<sensor_msgs::Imu>("imu", 300000);
+    temp_pub_ = nh_.advertise<sensor_msgs::Temperature>("temperature", 10000);
+    noise_sub_ = nh_.subscribe(kNode + "/noise", 10, &Loop::onNoise, this);
+    diag_sub_ = nh_.subscribe("/diagnostics", 1000, &Loop::onDiag, this);
+  }
+  bool waitForNodelet(double timeout_s) {
+    return waitFor(timeout_s, [&] {
+      return imu_pub_.getNumSubscribers() > 0 && temp_pub_.getNumSubscribers() > 0 &&
+             ros::service::exists("/" + kNode + "/analyze", false);
+    });
+  }
+  template <class F>
+  bool waitFor(double timeout_s, F done) {
+    const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(timeout_s);
+    while (ros::WallTime::now() < end) {
+      if (done()) return true;
+      ros::WallDuration(0.02).sleep();
+    }
+    return done();
+  }
+  void onNoise(const gyro_allan::NoiseReport::ConstPtr& m) {
+    std::lock_guard<std::mutex> l(mutex_);
+    ++reports_;
+    last_ = *m;
+  }
+  void onDiag(const diagnostic_msgs::DiagnosticArray::ConstPtr& msg) {
+    std::lock_guard<std::mutex> l(mutex_);
+    for (const auto& s : msg->status)
+      if (s.name.rfind("gyro_allan/" + kNode + ": ", 0) == 0) {
+        for (const auto& kv : s.values) values_[kv.key] = kv.value;
+        hwid_ = s.hardware_id;
+      }
+  }
+  double value(const std::string& key) {
+    std::lock_guard<std::mutex> l(mutex_);
+    auto it = values_.find(key);
+    return it == values_.end() ? std::nan("") : std::atof(it->second.c_str());
+  }
+  int reports() {
+    std::lock_guard<std::mutex> l(mutex_);
+    return reports_;
+  }
+  gyro_allan::NoiseReport last() {
+    std::lock_guard<std::mutex> l(mutex_);
+    return last_;
+  }
+  std::string hardwareId() {
+    std::lock_guard<std::mutex> l(mutex_);
+    return hwid_;
+  }
+  static std_srvs::Trigger::Response call(const std::string& service) {
+    std_srvs::Trigger t;
+    EXPECT_TRUE(ros::service::call("/" + kNode + "/" + service, t)) << service;
+    return t.response;
+  }
+  /// Publishes every IMU and temperature message of a bag (bag order) and waits until the nodelet has them all.
+  /// Returns the number of IMU messages.
+  int64_t play(const std::string& bag_path) {
+    const double before = value("samples received (total)"), temps_before = value("temperature readings (total)");
+    rosbag::Bag bag(bag_path);
+    rosbag::View view(bag);
+    int64_t n = 0, nt = 0;
+    for (const rosbag::MessageInstance& m : view) {
+      if (auto imu = m.instantiate<sensor_msgs::Imu>()) imu_pub_.publish(*imu), ++n;
+      else if (auto t = m.instantiate<sensor_msgs::Temperature>()) temp_pub_.publish(*t), ++nt;
+    }
+    EXPECT_TRUE(waitFor(120.0, [&] {
+      return value("samples received (total)") == (std::isnan(before) ? 0 : before) + static_cast<double>(n) &&
+             value("temperature readings (total)") == (std::isnan(temps_before) ? 0 : temps_before) + static_cast<double>(nt);
+    })) << "the nodelet did not receive every message of " << bag_path << " (" << n << " IMU, " << nt << " temperature)";
+    return n;
+  }
+  /// ~analyze and the report it publishes.
+  gyro_allan::NoiseReport analyze() {
+    const int before = reports();
+    const std_srvs::Trigger::Response r = call("analyze");
+    EXPECT_TRUE(r.success) << r.message;
+    EXPECT_TRUE(waitFor(60.0, [&] { return reports() > before; })) << "no ~noise after ~analyze";
+    return last();
+  }
+
+  ros::NodeHandle nh_;
+
+ private:
+  ros::Publisher imu_pub_, temp_pub_;
+  ros::Subscriber noise_sub_, diag_sub_;
+  std::mutex mutex_;
+  int reports_ = 0;
+  gyro_allan::NoiseReport last_;
+  std::map<std::string, std::string> values_;
+  std::string hwid_;
+};
+
+double rel(double a, double b) { return std::fabs(a - b) / std::max(std::fabs(b), 1e-300); }
+
+/// The nodelet's report against analyze_bag's report.yaml of the same bag: the same effects (type, every parameter
+/// and its sigma), fit error before and after the model check, corrected coefficients, the answer's coefficients,
+/// method and verdict. report.yaml prints 10 significant digits: relative tolerance 1e-8.
+void expectSameAsAnalyzeBag(const gyro_allan::NoiseReport& r, const YAML::Node& report, const std::string& effect) {
+  const double tol = 1e-8;
+  ASSERT_EQ(r.axes.size(), 3u);
+  EXPECT_EQ(r.samples, report["axes"]["x"]["samples"].as<int64_t>());
+  const char* terms[5] = {"quantization", "angle_random_walk", "bias_instability", "rate_random_walk", "rate_ramp"};
+  bool found = false;
+  for (const gyro_allan::AxisNoiseFit& a : r.axes) {
+    SCOPED_TRACE("axis " + a.axis);
+    const YAML::Node y = report["axes"][a.axis];
+    EXPECT_EQ(a.method, y["method"].as<std::string>());
+    EXPECT_EQ(a.quality, y["quality"].as<std::string>());
+    const gyro_allan::NoiseCoefficient* c[5] = {&a.quantization, &a.angle_random_walk, &a.bias_instability,
+                                                &a.rate_random_walk, &a.rate_ramp};
+    for (int t = 0; t < 5; ++t) {
+      EXPECT_LE(rel(c[t]->value, y["coefficients"][terms[t]]["value"].as<double>()), tol) << terms[t];
+      EXPECT_LE(rel(c[t]->sigma, y["coefficients"][terms[t]]["sigma"].as<double>()), tol) << terms[t];
+      EXPECT_EQ(c[t]->supported, y["coefficients"][terms[t]]["supported"].as<bool>()) << terms[t];
+    }
+    const YAML::Node mc = y["model_check"];
+    ASSERT_TRUE(a.model_checked) << a.model_check_note;
+    ASSERT_TRUE(mc.IsDefined());
+    EXPECT_LE(rel(a.rms_log10_before, mc["before"]["rms_log10"].as<double>()), tol);
+    EXPECT_LE(rel(a.rms_log10_after, mc["after"]["rms_log10"].as<double>()), tol);
+    EXPECT_LE(rel(a.chi2_dof_before, mc["before"]["chi2_dof"].as<double>()), tol);
+    EXPECT_LE(rel(a.chi2_dof_after, mc["after"]["chi2_dof"].as<double>()), tol);
+    const YAML::Node fx = mc["effects"];
+    ASSERT_EQ(a.effects.size(), fx.IsSequence() ? fx.size() : 0u);
+    for (size_t k = 0; k < a.effects.size(); ++k) {
+      EXPECT_EQ(a.effects[k].type, fx[k]["type"].as<std::string>());
+      EXPECT_EQ(a.effects[k].evidence, fx[k]["evidence"].as<std::string>());
+      for (size_t j = 0; j < a.effects[k].param_names.size(); ++j) {
+        const YAML::Node pj = fx[k]["parameters"][a.effects[k].param_names[j]];
+        EXPECT_LE(rel(a.effects[k].param_values[j], pj["value"].as<double>()), tol) << a.effects[k].param_names[j];
+        EXPECT_LE(rel(a.effects[k].param_sigmas[j], pj["sigma"].as<double>()), tol) << a.effects[k].param_names[j];
+      }
+      if (a.effects[k].type == effect) found = true;
+    }
+    ASSERT_EQ(a.corrected.size(), 5u);
+    for (int t = 0; t < 5; ++t)
+      EXPECT_LE(rel(a.corrected[t].value, mc["coefficients"][terms[t]]["value"].as<double>()), tol) << terms[t];
+  }
+  // Not vacuous: the injected effect (declared truth of the simulation) is found on some axis.
+  EXPECT_TRUE(found) << "no " << effect << " effect";
+}
+
+YAML::Node analyzeBag(const std::string& bag, const std::string& out) {
+  EXPECT_EQ(sh("GYRO_ALLAN_NO_PLOT=1 " + kTools + "/analyze_bag " + bag + " --output " + out + " --quiet"), 0);
+  return YAML::LoadFile(out + "/report.yaml");
+}
+
+}  // namespace
+
+TEST(NodeletClosedLoop, SameAsAnalyzeBagLiveControlSaveLatched) {
+  Loop h;
+  ASSERT_TRUE(h.waitForNodelet(30.0)) << "analyzer nodelet did not come up";
+  sh("mkdir -p " + kOut);
+  // 20 min at 100 Hz with declared noise and one undeclared effect each (simulate tool, fixed seeds):
+  // a warm-up drift of 2 mrad/s (theta 200 s) with the temperature series, and a 0.5 mrad/s sinusoid at 2.5 Hz.
+  const std::string warm = kOut + "/warm.bag", sine = kOut + "/sine.bag";
+  ASSERT_EQ(sh(kTools + "/simulate --output " + warm + " --rate 100 --duration 1200 --arw 1e-4 --rrw 1e-6 " +
+               "--thermal-amplitude 2e-3 --thermal-tau 200 --temperature --seed 3 > /dev/null"), 0);
+  ASSERT_EQ(sh(kTools + "/simulate --output " + sine + " --rate 100 --duration 1200 --arw 1e-4 " +
+               "--sine-amplitude 5e-4 --sine-frequency 2.5 --seed 4 > /dev/null"), 0);
+
+  // Warm-up: whole record in one window, the same answer as analyze_bag.
+  EXPECT_EQ(h.play(warm), 120000);
+  const gyro_allan::NoiseReport rw = h.analyze();
+  expectSameAsAnalyzeBag(rw, analyzeBag(warm, kOut + "/warm_out"), "thermal_drift");
+  EXPECT_TRUE(std::isfinite(rw.temperature));
+  EXPECT_EQ(h.hardwareId(), "imu_link");  // the IMU's frame_id (simulate --frame default)
+
+  // Sinusoid: the window is emptied first (~reset), then the same.
+  EXPECT_TRUE(Loop::call("reset").success);
+  EXPECT_EQ(h.play(sine), 120000);
+  const gyro_allan::NoiseReport rs = h.analyze();
+  expectSameAsAnalyzeBag(rs, analyzeBag(sine, kOut + "/sine_out"), "sinusoid");
+
+  // dynamic_reconfigure (what `rosrun dynamic_reconfigure dynparam set /loop_analyzer window_s 600` sends): the
+  // window shrinks to the newest 600 s at once, and hop_s (3600) is brought down to the window with it.
+  dynamic_reconfigure::Reconfigure rc;
+  dynamic_reconfigure::DoubleParameter w;
+  w.name = "window_s";
+  w.value = 600.0;
+  rc.request.config.doubles.push_back(w);
+  ASSERT_TRUE(ros::service::call("/" + kNode + "/set_parameters", rc));
+  EXPECT_TRUE(h.waitFor(10.0, [&] { return h.value("window (s)") == 600.0; }));
+  EXPECT_EQ(h.value("hop (s)"), 600.0);
+  const gyro_allan::NoiseReport r600 = h.analyze();
+  EXPECT_EQ(r600.window_s, 600.0);
+  EXPECT_LE((r600.window_end - r600.window_start).toSec(), 600.0 + 0.011);
+  EXPECT_NEAR(static_cast<double>(r600.samples), 60000.0, 2.0);
+
+  // ~save writes the three files of the last analysis (the 600 s window).
+  const std_srvs::Trigger::Response saved = Loop::call("save");
+  ASSERT_TRUE(saved.success) << saved.message;
+  const size_t from = saved.message.find("wrote ") + 6, to = saved.message.find("/report.yaml");
+  ASSERT_NE(to, std::string::npos) << saved.message;
+  const std::string dir = saved.message.substr(from, to - from);
+  struct stat st;
+  for (const char* f : {"/report.yaml", "/allan.csv", "/imu.yaml"})
+    EXPECT_EQ(stat((dir + f).c_str(), &st), 0) << dir << f;
+  const YAML::Node saved_report = YAML::LoadFile(dir + "/report.yaml");
+  EXPECT_EQ(saved_report["axes"]["x"]["samples"].as<int64_t>(), r600.samples);
+
+  // A subscriber that comes late gets the last result at once (latched ~noise).
+  std::mutex m;
+  int got = 0;
+  ros::Time end;
+  ros::Subscriber late = h.nh_.subscribe<gyro_allan::NoiseReport>(
+      kNode + "/noise", 1, [&](const gyro_allan::NoiseReport::ConstPtr& r) {
+        std::lock_guard<std::mutex> l(m);
+        ++got;
+        end = r->window_end;
+      });
+  EXPECT_TRUE(h.waitFor(10.0, [&] {
+    std::lock_guard<std::mutex> l(m);
+    return got > 0;
+  }));
+  EXPECT_EQ(end, r600.window_end);
+}
+
+int main(int argc, char** argv) {
+  testing::InitGoogleTest(&argc, argv);
+  ros::init(argc, argv, "nodelet_closed_loop");
+  ros::AsyncSpinner spinner(2);
+  spinner.start();
+  const int rc = RUN_ALL_TESTS();
+  spinner.stop();
+  ros::shutdown();
+  return rc;
+}
