@@ -85,6 +85,11 @@ struct GmwmFit {
   int dof = 0;                  ///< levels - parameters
   double chi2_p = 1;            ///< upper tail of chi2(dof)
   double criterion = 0;         ///< chi2 + penalty * parameters (smaller is better)
+  /// Every term is supported by the data: each log parameter (log variance of WN/QN/RW/DR/GM, log tc) has a 1-sigma
+  /// below `GmwmOptions::max_log_sd` (for a variance: the estimate lies more than 2 sigma above zero). Selection
+  /// considers identified fits only (a spurious extra GM fitted to the last noisy levels is not identified).
+  bool identified = false;
+  std::string unidentified;     ///< which terms were not
   std::vector<double> model_nu2;   ///< model WV at the levels
   Eigen::VectorXd theta;        ///< internal log parameters
   Eigen::MatrixXd theta_cov;
@@ -102,6 +107,7 @@ struct GmwmOptions {
   int max_gm = 3;
   bool quantization = false;    ///< default candidates also carry QN
   bool drift = false;           ///< default candidates also carry DR
+  double max_log_sd = 0.5;      ///< see GmwmFit::identified
   int weighting_iterations = 3; ///< Omega re-evaluated at the current estimate this many times
   double confidence = 0.95;     ///< of the wavelet-variance CI
 };
@@ -123,7 +129,8 @@ struct GmwmSelection {
   int best = -1;               ///< index of the smallest criterion among ok fits
   const GmwmFit& chosen() const { return fits.at(static_cast<size_t>(best)); }
 };
-/// Fits every candidate and picks the smallest criterion. best = -1 when none fitted.
+/// Fits every candidate and picks the smallest criterion among identified fits (among all ok fits when none is
+/// identified). best = -1 when none fitted.
 GmwmSelection selectGmwm(const WaveletVariance& wv, const GmwmOptions& options = {});
 
 // ---- Model Allan variance and the filter-ready state-space form ------------------------------------------------

@@ -467,6 +467,7 @@ GmwmFit fitGmwm(const WaveletVariance& wv, const GmwmModel& model, const GmwmOpt
   double best_cost = std::numeric_limits<double>::infinity();
   Eigen::VectorXd best;
   int iters = 0;
+  std::vector<std::pair<double, Eigen::VectorXd>> starts;
   for (const auto& c : combos) {
     Eigen::VectorXd th(L.p);
     const double share = 1.0 / (1 + L.n_gm + (model.random_walk ? 1 : 0));
@@ -480,7 +481,13 @@ GmwmFit fitGmwm(const WaveletVariance& wv, const GmwmModel& model, const GmwmOpt
       th[L.gm0 + 2 * i] = std::log(nearestNu(wv, 4.0 * tc) / peak * share);
       th[L.gm0 + 2 * i + 1] = std::log(tc);
     }
-    const double cost = levenbergMarquardt(P, &th, 200, &iters);
+    starts.push_back({levenbergMarquardt(P, &th, combos.size() > 3 ? 25 : 200, &iters), th});
+  }
+  // Many starts: each ran a short refinement; the best three are refined fully.
+  std::sort(starts.begin(), starts.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  for (size_t i = 0; i < std::min<size_t>(3, starts.size()); ++i) {
+    Eigen::VectorXd th = starts[i].second;
+    const double cost = combos.size() > 3 ? levenbergMarquardt(P, &th, 200, &iters) : starts[i].first;
     if (cost < best_cost) {
       best_cost = cost;
       best = th;
@@ -511,9 +518,18 @@ GmwmFit fitGmwm(const WaveletVariance& wv, const GmwmModel& model, const GmwmOpt
   }
   const Eigen::MatrixXd Jw = P.Winv_chol_inv * jacobian(P, fit.theta);
   const Eigen::MatrixXd info = Jw.transpose() * Jw;
-  Eigen::MatrixXd reg = info;
-  for (int k = 0; k < L.p; ++k) reg(k, k) += 1e-12 * std::max(info(k, k), 1e-300);
-  fit.theta_cov = reg.ldlt().solve(Eigen::MatrixXd::Identity(L.p, L.p));
+  {
+    // Pseudo-inverse in correlation form: a direction the data do not inform (a term at its bound) gets an
+    // effectively infinite variance instead of whatever a near-singular solve returns.
+    Eigen::VectorXd d(L.p);
+    for (int k = 0; k < L.p; ++k) d[k] = info(k, k) > 0 ? 1.0 / std::sqrt(info(k, k)) : 1e150;
+    const Eigen::MatrixXd Cn = d.asDiagonal() * info * d.asDiagonal();
+    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(Cn);
+    Eigen::VectorXd inv = es.eigenvalues();
+    for (int k = 0; k < L.p; ++k) inv[k] = inv[k] > 1e-10 ? 1.0 / inv[k] : 1e20;
+    fit.theta_cov = d.asDiagonal() * (es.eigenvectors() * inv.asDiagonal() * es.eigenvectors().transpose()) *
+                    d.asDiagonal();
+  }
   fit.dof = J - L.p;
   fit.chi2_p = fit.dof > 0 ? boost::math::cdf(boost::math::complement(boost::math::chi_squared(fit.dof), fit.chi2)) : 1.0;
   fit.criterion = fit.chi2 + options.penalty_per_parameter * L.p;
@@ -545,6 +561,21 @@ GmwmFit fitGmwm(const WaveletVariance& wv, const GmwmModel& model, const GmwmOpt
     g.tc_sd = g.tc * sdOf(L.gm0 + 2 * i + 1);
     fit.gm.push_back(g);
   }
+  fit.identified = true;
+  auto check = [&](int k, const std::string& what) {
+    if (k >= 0 && !(sdOf(k) < options.max_log_sd)) {
+      fit.identified = false;
+      fit.unidentified += (fit.unidentified.empty() ? "" : ", ") + what;
+    }
+  };
+  check(L.wn, "WN");
+  check(L.qn, "QN");
+  check(L.rw, "RW");
+  check(L.dr, "DR");
+  for (int i = 0; i < L.n_gm; ++i) {
+    check(L.gm0 + 2 * i, "GM" + std::to_string(i + 1) + " sigma");
+    check(L.gm0 + 2 * i + 1, "GM" + std::to_string(i + 1) + " tc");
+  }
   fit.ok = fit.theta.allFinite() && std::isfinite(fit.chi2);
   if (!fit.ok) fit.message = "the fit did not converge to finite values";
   return fit;
@@ -571,9 +602,14 @@ GmwmSelection selectGmwm(const WaveletVariance& wv, const GmwmOptions& options) 
   for (const auto& m : cands) {
     sel.fits.push_back(fitGmwm(wv, m, options));
     const GmwmFit& f = sel.fits.back();
-    if (f.ok && (sel.best < 0 || f.criterion < sel.fits[static_cast<size_t>(sel.best)].criterion))
-      sel.best = static_cast<int>(sel.fits.size()) - 1;
+    (void)f;
   }
+  for (int pass = 0; pass < 2 && sel.best < 0; ++pass)
+    for (size_t i = 0; i < sel.fits.size(); ++i) {
+      const GmwmFit& f = sel.fits[i];
+      if (!f.ok || (pass == 0 && !f.identified)) continue;
+      if (sel.best < 0 || f.criterion < sel.fits[static_cast<size_t>(sel.best)].criterion) sel.best = static_cast<int>(i);
+    }
   return sel;
 }
 
