@@ -8,6 +8,8 @@
 
 #include <Eigen/Dense>
 
+#include "gyro_allan/allan.hpp"
+
 namespace gyro_allan {
 
 // ---- Wavelet variance ----------------------------------------------------------------------------------------
@@ -85,7 +87,7 @@ struct GmwmFit {
   int dof = 0;                  ///< levels - parameters
   double chi2_p = 1;            ///< upper tail of chi2(dof)
   double criterion = 0;         ///< chi2 + penalty * parameters (smaller is better)
-  /// Every term is supported by the data: each log parameter (log variance of WN/QN/RW/DR/GM, log tc) has a 1-sigma
+  /// Every coloured term is supported by the data: each log parameter (log variance of RW/DR/GM, log tc) has a 1-sigma
   /// below `GmwmOptions::max_log_sd` (for a variance: the estimate lies more than 2 sigma above zero). Selection
   /// considers identified fits only (a spurious extra GM fitted to the last noisy levels is not identified).
   bool identified = false;
@@ -139,16 +141,57 @@ double gmwmModelAvar(const GmwmFit& fit, double tau0, int64_t m);
 /// Model wavelet variance at scale 2^j tau0.
 double gmwmModelWvAt(const GmwmFit& fit, double tau0, int level);
 
-/// Discrete bias model b = sum of states, state x = [gm_1 .. gm_p, rw] (rw only when K > 0):
-/// x[k+1] = Phi x[k] + w[k], Cov(w) = Qd; measurement white noise variance of one rate sample averaged over dt:
-/// N^2 / dt (+ 2 Q^2 / dt^2 for quantization, which is not white: lag-1 correlation -1/2).
+/// Discrete bias model b = sum of states, state x = [gm_i .. , rw] (rw only when K > 0):
+/// x[k+1] = Phi x[k] + w[k], Cov(w) = Qd, Phi = diag(exp(-dt/tc_i), 1), Qd = diag(sigma_i^2 (1 - exp(-2 dt/tc_i)),
+/// K^2 dt). Measurement white noise of one rate sample averaged over dt: N^2 / dt (+ 2 Q^2 / dt^2 for quantization,
+/// which is not white: lag-1 correlation -1/2). A GM whose correlation time is below dt/2 is white at that step: it
+/// is not a state but folded into the white variance with the variance of its dt-average,
+/// 2 sigma^2 tc / dt (1 - tc/dt (1 - exp(-dt/tc))) (listed in `folded`).
 struct DiscreteNoiseModel {
   double dt = 0;
   Eigen::MatrixXd Phi, Qd;
   std::vector<std::string> states;
-  double white_variance = 0;      ///< N^2 / dt [(rad/s)^2]
+  std::vector<std::string> folded;   ///< GM terms folded into white_variance
+  double white_variance = 0;      ///< N^2 / dt (+ folded GMs) [(rad/s)^2]
   double quantization_variance = 0;  ///< 2 Q^2 / dt^2 [(rad/s)^2]
 };
 DiscreteNoiseModel discretize(const GmwmFit& fit, double dt);
+
+// ---- Closed-loop check and the analysis stage -----------------------------------------------------------------------
+/// A model's Allan deviation against a measured curve over tau in [tau_min, tau_max].
+struct CurveAgreement {
+  double tau_min = 0, tau_max = 0;
+  int points = 0;
+  int within_ci = 0;          ///< model ADEV inside [dev_lo, dev_hi]
+  double worst_ratio = 1;     ///< max over points of max(r, 1/r), r = model ADEV / measured ADEV
+  double worst_tau = 0;       ///< where
+  double rms_log10 = 0;       ///< RMS of log10(measured / model ADEV)
+};
+CurveAgreement curveAgreement(const DeviationCurve& curve, const std::vector<double>& model_var, double tau_min,
+                              double tau_max);
+
+/// GMWM of one axis (the analysis stage behind --method gmwm and noise_model.yaml).
+struct GmwmAxis {
+  bool ok = false;
+  std::string message;             ///< why not ok
+  double tau0 = 0, record_s = 0;   ///< the segment analysed
+  double penalty_per_parameter = 0;  ///< of the selection criterion used
+  WaveletVariance wv;
+  GmwmSelection selection;
+  int wv_points = 0, wv_within_ci = 0;  ///< chosen model's WV inside the data's WV CI
+  /// Closed loop: the chosen state-space model's AVAR (exact for sampled data) and the IEEE 952 model's, each against
+  /// the measured oadev over tau from tau0 to record/10.
+  bool compared = false;
+  CurveAgreement gmwm_vs_data, ieee_vs_data;
+  CurveAgreement final_vs_data;  ///< the report's final model (IEEE terms + the model check's effects, or the split)
+  double worst_avar_ratio_vs_ieee = 1;  ///< max over the same points of the AVAR ratio GMWM / IEEE model (or inverse)
+};
+
+/// WV and model selection on one gap-free segment of rate samples. Never throws: ok = false with a message.
+GmwmAxis gmwmStage(const std::vector<double>& rate, double tau0, const GmwmOptions& options = {});
+/// Fills the closed-loop comparison (ieee_model_var: the IEEE model's AVAR at oadev's points).
+/// final_model_var (optional): the report's final model at the same points.
+void gmwmCompare(GmwmAxis* g, const DeviationCurve& oadev, const std::vector<double>& ieee_model_var,
+                 const std::vector<double>& final_model_var = {});
 
 }  // namespace gyro_allan

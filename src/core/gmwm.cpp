@@ -568,8 +568,9 @@ GmwmFit fitGmwm(const WaveletVariance& wv, const GmwmModel& model, const GmwmOpt
       fit.unidentified += (fit.unidentified.empty() ? "" : ", ") + what;
     }
   };
-  check(L.wn, "WN");
-  check(L.qn, "QN");
+  // WN is every model's base term and QN a sensor property: selection is among the coloured terms, so only those must
+  // be supported (a WN traded against a sub-sample GM, as on sensors with an internal low-pass, is no reason to
+  // reject the model).
   check(L.rw, "RW");
   check(L.dr, "DR");
   for (int i = 0; i < L.n_gm; ++i) {
@@ -630,24 +631,114 @@ DiscreteNoiseModel discretize(const GmwmFit& fit, double dt) {
   if (!(dt > 0) || !std::isfinite(dt)) throw std::invalid_argument("discretize: dt must be > 0");
   DiscreteNoiseModel d;
   d.dt = dt;
-  const int n = static_cast<int>(fit.gm.size()) + (fit.K > 0 ? 1 : 0);
+  double folded_var = 0;
+  int n_gm_states = 0;
+  for (const auto& g : fit.gm) {
+    if (g.tc < dt / 2) {
+      const double r = g.tc / dt;
+      folded_var += 2.0 * g.sigma * g.sigma * r * (1.0 - r * (-std::expm1(-1.0 / r)));
+    } else {
+      ++n_gm_states;
+    }
+  }
+  const int n = n_gm_states + (fit.K > 0 ? 1 : 0);
   d.Phi = Eigen::MatrixXd::Zero(n, n);
   d.Qd = Eigen::MatrixXd::Zero(n, n);
   int k = 0;
-  for (size_t i = 0; i < fit.gm.size(); ++i, ++k) {
+  for (size_t i = 0; i < fit.gm.size(); ++i) {
+    if (fit.gm[i].tc < dt / 2) {
+      d.folded.push_back("gm" + std::to_string(i + 1));
+      continue;
+    }
     const double phi = std::exp(-dt / fit.gm[i].tc);
     d.Phi(k, k) = phi;
     d.Qd(k, k) = fit.gm[i].sigma * fit.gm[i].sigma * (-std::expm1(-2.0 * dt / fit.gm[i].tc));
     d.states.push_back("gm" + std::to_string(i + 1));
+    ++k;
   }
   if (fit.K > 0) {
     d.Phi(k, k) = 1.0;
     d.Qd(k, k) = fit.K * fit.K * dt;
     d.states.push_back("rw");
   }
-  d.white_variance = fit.N * fit.N / dt;
+  d.white_variance = fit.N * fit.N / dt + folded_var;
   d.quantization_variance = 2.0 * fit.Q * fit.Q / (dt * dt);
   return d;
+}
+
+// ---- Closed loop and stage -------------------------------------------------------------------------------------------
+
+CurveAgreement curveAgreement(const DeviationCurve& curve, const std::vector<double>& model_var, double tau_min,
+                              double tau_max) {
+  CurveAgreement c;
+  c.tau_min = tau_min;
+  c.tau_max = tau_max;
+  double ss = 0;
+  for (size_t i = 0; i < curve.points.size() && i < model_var.size(); ++i) {
+    const DeviationPoint& p = curve.points[i];
+    if (p.tau < tau_min * (1 - 1e-9) || p.tau > tau_max * (1 + 1e-9) || !(p.var > 0) || !(model_var[i] > 0)) continue;
+    const double md = std::sqrt(model_var[i]);
+    ++c.points;
+    if (md >= p.dev_lo && md <= p.dev_hi) ++c.within_ci;
+    const double r = md / p.dev, rr = std::max(r, 1 / r);
+    if (rr > c.worst_ratio) {
+      c.worst_ratio = rr;
+      c.worst_tau = p.tau;
+    }
+    ss += std::pow(std::log10(p.dev / md), 2);
+  }
+  if (c.points > 0) c.rms_log10 = std::sqrt(ss / c.points);
+  return c;
+}
+
+GmwmAxis gmwmStage(const std::vector<double>& rate, double tau0, const GmwmOptions& options) {
+  GmwmAxis g;
+  g.tau0 = tau0;
+  g.record_s = static_cast<double>(rate.size()) * tau0;
+  g.penalty_per_parameter = options.penalty_per_parameter;
+  try {
+    g.wv = haarWaveletVariance(rate, tau0, options.confidence);
+  } catch (const std::exception& e) {
+    g.message = std::string("wavelet variance: ") + e.what();
+    return g;
+  }
+  g.selection = selectGmwm(g.wv, options);
+  if (g.selection.best < 0) {
+    g.message = "no candidate model could be fitted";
+    for (const auto& f : g.selection.fits)
+      if (!f.message.empty()) {
+        g.message += " (" + f.model.name() + ": " + f.message + ")";
+        break;
+      }
+    return g;
+  }
+  const GmwmFit& f = g.selection.chosen();
+  for (size_t j = 0; j < g.wv.nu2.size(); ++j) {
+    ++g.wv_points;
+    if (f.model_nu2[j] >= g.wv.lo[j] && f.model_nu2[j] <= g.wv.hi[j]) ++g.wv_within_ci;
+  }
+  g.ok = true;
+  return g;
+}
+
+void gmwmCompare(GmwmAxis* g, const DeviationCurve& oadev, const std::vector<double>& ieee_model_var,
+                 const std::vector<double>& final_model_var) {
+  if (!g || !g->ok) return;
+  const GmwmFit& f = g->selection.chosen();
+  std::vector<double> mv(oadev.points.size());
+  for (size_t i = 0; i < mv.size(); ++i) mv[i] = gmwmModelAvar(f, g->tau0, std::max<int64_t>(1, oadev.points[i].m));
+  const double t_lo = g->tau0, t_hi = g->record_s / 10;
+  g->gmwm_vs_data = curveAgreement(oadev, mv, t_lo, t_hi);
+  g->ieee_vs_data = curveAgreement(oadev, ieee_model_var, t_lo, t_hi);
+  g->final_vs_data = curveAgreement(oadev, final_model_var.empty() ? ieee_model_var : final_model_var, t_lo, t_hi);
+  g->worst_avar_ratio_vs_ieee = 1;
+  for (size_t i = 0; i < mv.size() && i < ieee_model_var.size(); ++i) {
+    const double tau = oadev.points[i].tau;
+    if (tau < t_lo * (1 - 1e-9) || tau > t_hi * (1 + 1e-9) || !(mv[i] > 0) || !(ieee_model_var[i] > 0)) continue;
+    const double r = mv[i] / ieee_model_var[i];
+    g->worst_avar_ratio_vs_ieee = std::max(g->worst_avar_ratio_vs_ieee, std::max(r, 1 / r));
+  }
+  g->compared = true;
 }
 
 }  // namespace gyro_allan
