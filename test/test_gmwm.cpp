@@ -249,9 +249,17 @@ TEST(GmwmDiscrete, PhiQdAndFolding) {
   EXPECT_NEAR(d.Qd(0, 0), 25e-8 * (1 - std::exp(-0.02 / 30.0)), 1e-20);
   EXPECT_DOUBLE_EQ(d.Phi(1, 1), 1.0);
   EXPECT_NEAR(d.Qd(1, 1), 1e-8 * 0.01, 1e-22);
-  // Folded GM: variance of the 10-ms mean of an AR(1) sampled finely, 2 s^2 r (1 - r (1 - e^(-1/r))), r = tc/dt.
-  const double r = 0.2, folded = 2 * 1e-6 * r * (1 - r * (1 - std::exp(-1 / r)));
-  EXPECT_NEAR(d.white_variance, 4e-6 / 0.01 + folded, 1e-12);
+  // Folded GM: the white noise with its long-run angle random walk, N_eq^2 = sigma^2 tau0 (1 + phi0) / (1 - phi0)
+  // (data interval tau0 = 1 ms here, phi0 = exp(-0.5)), i.e. the GM's AVAR at tau >> tc is N_eq^2 / tau.
+  f.tau0 = 0.001;
+  const DiscreteNoiseModel d2 = discretize(f, 0.01);
+  const double phi0 = std::exp(-0.5), neq2 = 1e-6 * 0.001 * (1 + phi0) / (1 - phi0);
+  EXPECT_NEAR(d2.white_variance, 4e-6 / 0.01 + neq2 / 0.01, 1e-12);
+  // ... which is what the fitted model's Allan variance says far beyond tc (m = 1e5 samples, 100 s).
+  GmwmFit only_gm;
+  only_gm.model = parseGmwmModel("GM");
+  only_gm.theta = Eigen::Vector2d(std::log(1e-6), std::log(2.0));  // variance 1e-6, tc 2 samples
+  EXPECT_NEAR(gmwmModelAvar(only_gm, 0.001, 100000) * 100.0 / neq2, 1.0, 1e-3);
   // The stationary variance is kept by the GM recursion: Qd / (1 - Phi^2) = sigma^2.
   EXPECT_NEAR(d.Qd(0, 0) / (1 - d.Phi(0, 0) * d.Phi(0, 0)), 25e-8, 1e-15);
   EXPECT_THROW(discretize(f, 0), std::invalid_argument);

@@ -83,6 +83,7 @@ struct GmwmFit {
   double K = 0, K_sd = 0;       ///< rate random walk [rad/s/sqrt(s)]
   double R = 0, R_sd = 0;       ///< rate ramp magnitude [rad/s^2]
   std::vector<GaussMarkovTerm> gm;  ///< sorted by correlation time
+  double tau0 = 0;              ///< sample interval of the data [s]
   double chi2 = 0;              ///< (nu_hat - nu(theta))' Omega(theta)^-1 (nu_hat - nu(theta)) at the estimate
   int dof = 0;                  ///< levels - parameters
   double chi2_p = 1;            ///< upper tail of chi2(dof)
@@ -145,8 +146,9 @@ double gmwmModelWvAt(const GmwmFit& fit, double tau0, int level);
 /// x[k+1] = Phi x[k] + w[k], Cov(w) = Qd, Phi = diag(exp(-dt/tc_i), 1), Qd = diag(sigma_i^2 (1 - exp(-2 dt/tc_i)),
 /// K^2 dt). Measurement white noise of one rate sample averaged over dt: N^2 / dt (+ 2 Q^2 / dt^2 for quantization,
 /// which is not white: lag-1 correlation -1/2). A GM whose correlation time is below dt/2 is white at that step: it
-/// is not a state but folded into the white variance with the variance of its dt-average,
-/// 2 sigma^2 tc / dt (1 - tc/dt (1 - exp(-dt/tc))) (listed in `folded`).
+/// is not a state but folded into the white variance as the white noise with the same long-run angle random walk:
+/// N_eq^2 / dt with N_eq^2 = sigma^2 tau0 (1 + phi0) / (1 - phi0), phi0 = exp(-tau0/tc) at the data interval tau0
+/// (the sampled AR(1)'s sum of autocovariances; 2 sigma^2 tc when tc >> tau0). Listed in `folded`.
 struct DiscreteNoiseModel {
   double dt = 0;
   Eigen::MatrixXd Phi, Qd;

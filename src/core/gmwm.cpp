@@ -504,6 +504,7 @@ GmwmFit fitGmwm(const WaveletVariance& wv, const GmwmModel& model, const GmwmOpt
   setWeights(&P, omega);
   const Eigen::VectorXd rw = residual(P, best);
   fit.chi2 = rw.squaredNorm();
+  fit.tau0 = wv.tau0;
   fit.iterations = iters;
   fit.theta = best;
   // Sort GMs by correlation time.
@@ -635,8 +636,11 @@ DiscreteNoiseModel discretize(const GmwmFit& fit, double dt) {
   int n_gm_states = 0;
   for (const auto& g : fit.gm) {
     if (g.tc < dt / 2) {
-      const double r = g.tc / dt;
-      folded_var += 2.0 * g.sigma * g.sigma * r * (1.0 - r * (-std::expm1(-1.0 / r)));
+      // Long-run equivalent white noise of the sampled AR(1): sigma^2 tau0 (1 + phi0) / (1 - phi0) = N_eq^2.
+      const double t0 = fit.tau0 > 0 ? fit.tau0 : dt;
+      const double x = t0 / g.tc;
+      const double neq2 = g.sigma * g.sigma * t0 * (2.0 - (-std::expm1(-x))) / (-std::expm1(-x));
+      folded_var += neq2 / dt;
     } else {
       ++n_gm_states;
     }
