@@ -69,4 +69,6 @@ TEST(CliGmwm, NoiseModelYamlFromDeclaredNoise) {
                        "/bad --quiet");
   EXPECT_EQ(bad.code, 1);
   EXPECT_NE(bad.err.find("--filter-rate"), std::string::npos) << bad.err;
+  EXPECT_EQ(run(kTools + "/analyze_bag --csv " + kOut + "/gm.csv --rate 100 --filter-rate 0 --output " + kOut +
+                "/bad --quiet").code, 1);
 }

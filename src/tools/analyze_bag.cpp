@@ -169,7 +169,10 @@ Args parseArgs(int argc, char** argv) {
     else if (s == "--tau-grid") a.tau_grid = value();
     else if (s == "--deviations") a.deviations = value();
     else if (s == "--method") a.method = value();
-    else if (s == "--filter-rate") a.filter_rate = parseDouble(s, value());  // GMWM (#16)
+    else if (s == "--filter-rate") {  // GMWM (#16)
+      a.filter_rate = parseDouble(s, value());
+      if (!(a.filter_rate > 0)) throw UsageError("--filter-rate must be > 0");
+    }
     else if (s == "--no-wavelet-split") a.wavelet_split = false;
     else if (s == "--no-model-check") a.model_check = false;
     else if (s == "--confidence") a.confidence = parseDouble(s, value());
@@ -531,7 +534,6 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
   opt.input = angle_input ? InputKind::Angle : InputKind::Rate;
   opt.angle_increments = angle_input && args.angle_mode == "increment";
   // GMWM (#16): --method gmwm = auto's coefficients plus the GMWM stage; --filter-rate implies it.
-  if (args.filter_rate < 0 || !std::isfinite(args.filter_rate)) throw UsageError("--filter-rate must be > 0");
   opt.gmwm = args.method == "gmwm" || args.filter_rate > 0;
   const std::string method = args.method == "gmwm" ? "auto" : args.method;
   if (method != "auto" && method != "joint_fit" && method != "wavelet_split")
