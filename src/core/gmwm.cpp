@@ -28,9 +28,11 @@ WaveletVariance haarWaveletVariance(const std::vector<double>& x, double tau0, d
     mean += v;
   }
   mean /= n;
-  // Prefix sums of the centred samples (the mean changes no Haar coefficient).
-  std::vector<long double> p(static_cast<size_t>(n) + 1, 0.0L);
-  for (int64_t i = 0; i < n; ++i) p[i + 1] = p[i] + (static_cast<long double>(x[i]) - mean);
+  // Prefix sums of the centred samples (the mean changes no Haar coefficient), accumulated in long double and stored
+  // as double (8 bytes per sample: a 1e8-sample record needs 0.8 GB, not 1.6).
+  std::vector<double> p(static_cast<size_t>(n) + 1, 0.0);
+  long double acc = 0;
+  for (int64_t i = 0; i < n; ++i) p[i + 1] = static_cast<double>(acc += static_cast<long double>(x[i]) - mean);
   WaveletVariance wv;
   wv.tau0 = tau0;
   wv.n = n;
@@ -42,7 +44,7 @@ WaveletVariance haarWaveletVariance(const std::vector<double>& x, double tau0, d
     const int64_t m = L / 2;
     long double sum = 0;
     for (int64_t t = L; t <= n; ++t) {  // coefficient ending at sample t-1 uses p[t], p[t-m], p[t-L]
-      const long double w = (p[t] - 2.0L * p[t - m] + p[t - L]) / (2.0L * m);
+      const long double w = (static_cast<long double>(p[t]) - 2.0L * p[t - m] + p[t - L]) / (2.0L * m);
       sum += w * w;
     }
     const int64_t M = n - L + 1;
