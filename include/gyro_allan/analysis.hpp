@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "gyro_allan/allan.hpp"
+#include "gyro_allan/gmwm.hpp"
 #include "gyro_allan/model_check.hpp"
 #include "gyro_allan/noise_model.hpp"
 #include "gyro_allan/quality.hpp"
@@ -40,6 +41,10 @@ struct AnalysisOptions {
   /// Run the wavelet split on a second thread while the model check runs (they only read the samples); the result
   /// is the same either way.
   bool concurrent_stages = false;
+  /// GMWM stage (gmwm.hpp) on the longest gap-free segment, in finish(): wavelet variance, model selection and the
+  /// closed-loop comparison with the IEEE joint fit (AxisAnalysis::gmwm; analyze_bag writes noise_model.yaml from it).
+  bool gmwm = false;
+  GmwmOptions gmwm_options;
 };
 
 struct AxisAnalysis {
@@ -77,6 +82,8 @@ struct AxisAnalysis {
   /// (quantized_output.hpp; on the longest gap-free segment, as read: before spike removal)
   QuantizedOutput quantized;
   QualityVerdict quality;           ///< verdict on `coefficients` (quality.hpp), set by finish()
+  bool has_gmwm = false;            ///< AnalysisOptions::gmwm
+  GmwmAxis gmwm;
 };
 
 /// Rate samples [rad/s] of one gap-free segment of angle samples, in place: an accumulated angle theta (n points)

@@ -239,6 +239,10 @@ void AxisStages::check() {
 
 AxisAnalysis AxisStages::finish() {
   if (!prepared_) throw std::logic_error("AxisStages::finish before prepare");
+  if (options_.gmwm && longest_ < segments_.size()) {  // GMWM stage (gmwm.hpp), before the samples are freed
+    a_.gmwm = gmwmStage(segments_[longest_], tau0_, options_.gmwm_options);
+    a_.has_gmwm = true;
+  }
   std::vector<std::vector<double>>().swap(segments_);  // the samples are not needed any more
   const std::string& axis = axis_;
   const AnalysisOptions& options = options_;
@@ -331,6 +335,7 @@ AxisAnalysis AxisStages::finish() {
     a.final_model_var = a.fit.model_var;
     a.final_error = {a.fit.rms_log10, a.fit.chi2_dof, a.fit.n_rms};
   }
+  if (a.has_gmwm) gmwmCompare(&a.gmwm, a.oadev, a.fit.model_var, a.final_model_var);  // closed loop vs IEEE fits
   a.quality = assessQuality(a);
   if (unboundIntervalsIfBad(a.quality, &a.coefficients))
     a.notes.push_back("intervals unbounded: the fit is bad, no interval computed under its model can be trusted");

@@ -311,6 +311,7 @@ PipelineResult runPipeline(PipelineInput&& in, const PipelineOptions& options, S
   ao.wavelet_split = false;
   ao.model_check = false;
   ao.method = "joint_fit";
+  ao.gmwm = false;  // GMWM (#16): gyro only
   SanitizedSeries sa;
   std::vector<std::string> accel_errors(3);
   if (!accel_results.empty()) {

@@ -34,6 +34,7 @@
 #include "gyro_allan/compact_series.hpp"
 #include "gyro_allan/csv_input.hpp"
 #include "gyro_allan/io/bag_input.hpp"
+#include "gyro_allan/io/noise_model_yaml.hpp"
 #include "gyro_allan/io/report.hpp"
 #include "gyro_allan/kalibr.hpp"
 #include "gyro_allan/pipeline.hpp"
@@ -82,6 +83,9 @@ Analysis
                          (default oadev; mtotdev/ttotdev cost ~60x an oadev)
   --method M             auto | joint_fit | wavelet_split: whose coefficients are the answer (default auto:
                          wavelet_split when quantization dominates the shortest tau, else joint_fit)
+  --method gmwm          also fit the GMWM state-space bias model (WN + Gauss-Markov terms + RW) and write
+                         DIR/noise_model.yaml (README "noise_model.yaml"); report.yaml's coefficients as for auto
+  --filter-rate HZ       noise_model.yaml: Phi/Qd also at this filter rate (implies --method gmwm)
   --no-wavelet-split     skip the wavelet split (sym8 denoising, Allan variance of both parts)
   --no-model-check       skip the model check (residual -> missing effect -> refit)
   --confidence C         two-sided confidence of the intervals (default 0.683)
@@ -126,6 +130,7 @@ struct Args {
   int jobs = 0;  // 0 = one per core
   bool bag_time = false, quiet = false, wavelet_split = true, model_check = true, keep_spikes = false;
   bool rest_check = true;
+  double filter_rate = 0;  // GMWM (#16): --filter-rate HZ
 };
 
 struct UsageError : std::runtime_error {
@@ -165,6 +170,10 @@ Args parseArgs(int argc, char** argv) {
     else if (s == "--tau-grid") a.tau_grid = value();
     else if (s == "--deviations") a.deviations = value();
     else if (s == "--method") a.method = value();
+    else if (s == "--filter-rate") {  // GMWM (#16)
+      a.filter_rate = parseDouble(s, value());
+      if (!(a.filter_rate > 0)) throw UsageError("--filter-rate must be > 0");
+    }
     else if (s == "--no-wavelet-split") a.wavelet_split = false;
     else if (s == "--no-model-check") a.model_check = false;
     else if (s == "--confidence") a.confidence = parseDouble(s, value());
@@ -408,11 +417,14 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
   const bool angle_input = args.input == "angle" || !args.angle_topic.empty();
   opt.input = angle_input ? InputKind::Angle : InputKind::Rate;
   opt.angle_increments = angle_input && args.angle_mode == "increment";
-  if (args.method != "auto" && args.method != "joint_fit" && args.method != "wavelet_split")
-    throw UsageError("--method must be auto, joint_fit or wavelet_split");
+  // GMWM (#16): --method gmwm = auto's coefficients plus the GMWM stage; --filter-rate implies it.
+  opt.gmwm = args.method == "gmwm" || args.filter_rate > 0;
+  const std::string method = args.method == "gmwm" ? "auto" : args.method;
+  if (method != "auto" && method != "joint_fit" && method != "wavelet_split")
+    throw UsageError("--method must be auto, joint_fit, wavelet_split or gmwm");
   if (args.method == "wavelet_split" && !args.wavelet_split)
     throw UsageError("--method wavelet_split contradicts --no-wavelet-split");
-  opt.method = args.method;
+  opt.method = method;
   opt.wavelet_split = args.wavelet_split;
   opt.model_check = args.model_check;
   opt.remove_spikes = !args.keep_spikes;
@@ -526,6 +538,7 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
     writeAnalysisFiles(args.output, meta, pr, args.format, parseKalibrAxisRule(args.kalibr_axis),
                        opt.input == InputKind::Rate,
                        "the whole record; at-rest check skipped (--no-rest-check): valid only if the sensor was static");
+    if (opt.gmwm) writeFileAtomic(args.output + "/noise_model.yaml", noiseModelYaml(results, args.filter_rate, meta.sources));
   } catch (const std::exception& e) {
     std::cerr << "analyze_bag: error: " << e.what() << "\n";
     return kExitOutput;
@@ -538,6 +551,7 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
     std::printf("%s", inputSummary(meta).c_str());
     std::printf("%s", summaryTable(results).c_str());
     if (!accel_results.empty()) std::printf("%s", accelSummaryTable(accel_results).c_str());
+    if (opt.gmwm) std::printf("%swrote %s/noise_model.yaml\n", gmwmSummary(results).c_str(), args.output.c_str());
     if (!accel_note.empty()) std::printf("%s\n", accel_note.c_str());
     std::printf("wrote %s/report.%s, %s/allan.csv and %s/imu.yaml (Kalibr)\n", args.output.c_str(),
                 args.format.c_str(), args.output.c_str(), args.output.c_str());

@@ -1,0 +1,199 @@
+// Generalized Method of Wavelet Moments (Guerrier et al. 2013): Haar MODWT wavelet variance, closed-form wavelet
+// variances of WN/QN/RW/DR/Gauss-Markov, efficient GMWM fit, model selection, and the filter-ready state-space model.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <Eigen/Dense>
+
+#include "gyro_allan/allan.hpp"
+
+namespace gyro_allan {
+
+// ---- Wavelet variance ----------------------------------------------------------------------------------------
+// Haar MODWT at level j (j = 1, 2, ...): filter length L_j = 2^j samples, scale tau_j = 2^j tau0; the coefficient
+// W_{j,t} = (mean of samples t-m+1..t  -  mean of samples t-2m+1..t-m) / 2 with m = 2^(j-1). Its variance nu_j^2 is
+// half the Allan variance at averaging time m tau0: nu_j^2 = AVAR(tau_j / 2) / 2. The estimate averages W^2 over the
+// M_j = n - L_j + 1 coefficients that involve no boundary (unbiased), i.e. it equals oavar(m) / 2 exactly.
+
+struct WaveletVariance {
+  double tau0 = 0;                 ///< sample interval [s]
+  int64_t n = 0;                   ///< samples
+  std::vector<int> level;          ///< j
+  std::vector<double> scale;       ///< tau_j = 2^j tau0 [s]
+  std::vector<double> nu2;         ///< estimate [(rad/s)^2]
+  std::vector<int64_t> n_coeffs;   ///< M_j
+  std::vector<double> eta;         ///< EDF of the CI: max(M_j / 2^j, 1) (Percival's eta_3, as the GMWM package)
+  std::vector<double> lo, hi;      ///< chi-squared CI of nu2 at `confidence`
+  double confidence = 0.95;
+};
+
+/// Haar MODWT wavelet variance of the samples at levels 1..J, J the largest level with 2^j <= n / max_fraction_inv
+/// (default: scales up to a quarter of the record). Throws std::invalid_argument when fewer than 8 samples or any
+/// sample is not finite.
+WaveletVariance haarWaveletVariance(const std::vector<double>& x, double tau0, double confidence = 0.95,
+                                    int max_fraction_inv = 4);
+
+// ---- Theoretical wavelet variance (sample units: variances per sample, scale tau in samples = 2^j) -------------
+/// White noise of variance s2: s2 / tau.
+double wvWhite(double s2, double tau);
+/// Quantization noise (a first difference of white noise of variance q2, as a pulse counter): 6 q2 / tau^2.
+double wvQuantization(double q2, double tau);
+/// Random walk with innovation variance g2: g2 (tau^2 + 2) / (12 tau).
+double wvRandomWalk(double g2, double tau);
+/// Linear drift of slope w per sample: w^2 tau^2 / 16.
+double wvDrift(double w2, double tau);
+/// AR(1) x_t = phi x_{t-1} + e_t, Var(e) = s2, 0 <= phi < 1 (Guerrier et al. 2013):
+///   ((phi^2 - 1) tau + 2 phi (phi^tau - 4 phi^(tau/2) + 3)) s2 / ((phi - 1)^3 (phi + 1) tau^2).
+/// Evaluated in a cancellation-free form in terms of a = -ln(phi).
+double wvAr1(double phi, double s2, double tau);
+/// Exact Haar wavelet variance of a stationary process from its autocovariance acf[0..] (acf[k] = 0 beyond the
+/// vector): sum_l sum_l' h_l h_l' acf(|l - l'|). O(tau^2); the reference for the closed forms (tests).
+double wvFromAutocovariance(const std::vector<double>& acf, int64_t tau);
+
+// ---- Models -----------------------------------------------------------------------------------------------------
+/// A composite model: sum of the enabled processes.
+struct GmwmModel {
+  bool white = true;           ///< WN (angle random walk N)
+  bool quantization = false;   ///< QN (Q)
+  bool random_walk = false;    ///< RW (rate random walk K)
+  bool drift = false;          ///< DR (rate ramp R)
+  int gauss_markov = 0;        ///< number of first-order Gauss-Markov (AR1) terms
+  std::string name() const;    ///< e.g. "WN+2GM+RW"
+  int parameters() const;      ///< free parameters
+};
+/// Parses "WN+2GM+RW", "QN+WN+GM", ... (terms WN, QN, RW, DR, GM, kGM; case-insensitive). Throws on bad text.
+GmwmModel parseGmwmModel(const std::string& text);
+
+struct GaussMarkovTerm {
+  double sigma = 0, sigma_sd = 0;  ///< stationary standard deviation [rad/s] and its 1-sigma
+  double tc = 0, tc_sd = 0;        ///< correlation time [s] and its 1-sigma
+};
+
+/// A fitted model in SI (gyro: rad, rad/s). The *_sd are 1-sigma from the GMWM asymptotic covariance
+/// (J' Omega^-1 J)^-1 mapped from the log parameters by the delta method.
+struct GmwmFit {
+  GmwmModel model;
+  bool ok = false;
+  std::string message;
+  double N = 0, N_sd = 0;       ///< angle random walk [rad/sqrt(s)]
+  double Q = 0, Q_sd = 0;       ///< quantization [rad] (Allan convention: AVAR 3 Q^2 / tau^2)
+  double K = 0, K_sd = 0;       ///< rate random walk [rad/s/sqrt(s)]
+  double R = 0, R_sd = 0;       ///< rate ramp magnitude [rad/s^2]
+  std::vector<GaussMarkovTerm> gm;  ///< sorted by correlation time
+  double tau0 = 0;              ///< sample interval of the data [s]
+  double chi2 = 0;              ///< (nu_hat - nu(theta))' Omega(theta)^-1 (nu_hat - nu(theta)) at the estimate
+  int dof = 0;                  ///< levels - parameters
+  double chi2_p = 1;            ///< upper tail of chi2(dof)
+  double criterion = 0;         ///< chi2 + penalty * parameters (smaller is better)
+  /// Every coloured term is supported by the data: each log parameter (log variance of RW/DR/GM, log tc) has a 1-sigma
+  /// below `GmwmOptions::max_log_sd` (for a variance: the estimate lies more than 2 sigma above zero). Selection
+  /// considers identified fits only (a spurious extra GM fitted to the last noisy levels is not identified).
+  bool identified = false;
+  std::string unidentified;     ///< which terms were not
+  std::vector<double> model_nu2;   ///< model WV at the levels
+  Eigen::VectorXd theta;        ///< internal log parameters
+  Eigen::MatrixXd theta_cov;
+  int iterations = 0;
+};
+
+struct GmwmOptions {
+  /// Penalty per free parameter of the selection criterion chi2 + penalty p. 2 is the WIC of an efficient GMWM
+  /// (its optimism 2 tr((J'WJ)^-1 J'W Omega W J) is 2p when W = Omega^-1); the default is calibrated on the tuning
+  /// seeds of gmwm_study (docs/gmwm.md).
+  double penalty_per_parameter = 2.0;
+  /// Candidate models for selection; empty = WN+RW, WN+kGM, WN+kGM+RW for k = 1..max_gm (QN/DR added when
+  /// quantization / drift below are set).
+  std::vector<GmwmModel> candidates;
+  int max_gm = 3;
+  bool quantization = false;    ///< default candidates also carry QN
+  bool drift = false;           ///< default candidates also carry DR
+  double max_log_sd = 0.5;      ///< see GmwmFit::identified
+  int weighting_iterations = 3; ///< Omega re-evaluated at the current estimate this many times
+  double confidence = 0.95;     ///< of the wavelet-variance CI
+};
+
+/// Model-based covariance of the WV estimates (asymptotic, Gaussian process): Cov(nu_j, nu_k) =
+/// 2 min(M_j, M_k) / (M_j M_k) * integral_{-1/2}^{1/2} |H_j(f)|^2 |H_k(f)|^2 S(f)^2 df, S the model's two-sided
+/// spectrum in sample units (the drift, deterministic, contributes nothing). Exposed for tests.
+Eigen::MatrixXd gmwmCovariance(const WaveletVariance& wv, const GmwmModel& model, const Eigen::VectorXd& theta);
+/// Model WV at the levels of wv for internal parameters theta.
+std::vector<double> gmwmModelWv(const WaveletVariance& wv, const GmwmModel& model, const Eigen::VectorXd& theta);
+
+/// Fits one model to a wavelet variance: robust multi-start, then Levenberg-Marquardt on the log parameters with the
+/// weight Omega^-1 re-evaluated at the estimate (weighting_iterations times; the first pass weights by the data's
+/// own WV, 2 nu_hat^4 / eta). Never throws on bad data: ok = false with a message.
+GmwmFit fitGmwm(const WaveletVariance& wv, const GmwmModel& model, const GmwmOptions& options = {});
+
+struct GmwmSelection {
+  std::vector<GmwmFit> fits;   ///< every candidate, in candidate order
+  int best = -1;               ///< index of the smallest criterion among ok fits
+  const GmwmFit& chosen() const { return fits.at(static_cast<size_t>(best)); }
+};
+/// Fits every candidate and picks the smallest criterion among identified fits (among all ok fits when none is
+/// identified). best = -1 when none fitted.
+GmwmSelection selectGmwm(const WaveletVariance& wv, const GmwmOptions& options = {});
+
+// ---- Model Allan variance and the filter-ready state-space form ------------------------------------------------
+/// Overlapping-AVAR expectation of the fitted model at averaging factor m (tau = m tau0), exact for sampled data.
+double gmwmModelAvar(const GmwmFit& fit, double tau0, int64_t m);
+/// Model wavelet variance at scale 2^j tau0.
+double gmwmModelWvAt(const GmwmFit& fit, double tau0, int level);
+
+/// Discrete bias model b = sum of states, state x = [gm_i .. , rw] (rw only when K > 0):
+/// x[k+1] = Phi x[k] + w[k], Cov(w) = Qd, Phi = diag(exp(-dt/tc_i), 1), Qd = diag(sigma_i^2 (1 - exp(-2 dt/tc_i)),
+/// K^2 dt). Measurement white noise of one rate sample averaged over dt: N^2 / dt (+ 2 Q^2 / dt^2 for quantization,
+/// which is not white: lag-1 correlation -1/2). A GM whose correlation time is below dt/2 is white at that step: it
+/// is not a state but folded into the white variance as the white noise with the same long-run angle random walk:
+/// N_eq^2 / dt with N_eq^2 = sigma^2 tau0 (1 + phi0) / (1 - phi0), phi0 = exp(-tau0/tc) at the data interval tau0
+/// (the sampled AR(1)'s sum of autocovariances; 2 sigma^2 tc when tc >> tau0). Listed in `folded`.
+struct DiscreteNoiseModel {
+  double dt = 0;
+  Eigen::MatrixXd Phi, Qd;
+  std::vector<std::string> states;
+  std::vector<std::string> folded;   ///< GM terms folded into white_variance
+  double white_variance = 0;      ///< N^2 / dt (+ folded GMs) [(rad/s)^2]
+  double quantization_variance = 0;  ///< 2 Q^2 / dt^2 [(rad/s)^2]
+};
+DiscreteNoiseModel discretize(const GmwmFit& fit, double dt);
+
+// ---- Closed-loop check and the analysis stage -----------------------------------------------------------------------
+/// A model's Allan deviation against a measured curve over tau in [tau_min, tau_max].
+struct CurveAgreement {
+  double tau_min = 0, tau_max = 0;
+  int points = 0;
+  int within_ci = 0;          ///< model ADEV inside [dev_lo, dev_hi]
+  double worst_ratio = 1;     ///< max over points of max(r, 1/r), r = model ADEV / measured ADEV
+  double worst_tau = 0;       ///< where
+  double rms_log10 = 0;       ///< RMS of log10(measured / model ADEV)
+};
+CurveAgreement curveAgreement(const DeviationCurve& curve, const std::vector<double>& model_var, double tau_min,
+                              double tau_max);
+
+/// GMWM of one axis (the analysis stage behind --method gmwm and noise_model.yaml).
+struct GmwmAxis {
+  bool ok = false;
+  std::string message;             ///< why not ok
+  double tau0 = 0, record_s = 0;   ///< the segment analysed
+  double penalty_per_parameter = 0;  ///< of the selection criterion used
+  WaveletVariance wv;
+  GmwmSelection selection;
+  int wv_points = 0, wv_within_ci = 0;  ///< chosen model's WV inside the data's WV CI
+  /// Closed loop: the chosen state-space model's AVAR (exact for sampled data) and the IEEE 952 model's, each against
+  /// the measured oadev over tau from tau0 to record/10.
+  bool compared = false;
+  CurveAgreement gmwm_vs_data, ieee_vs_data;
+  CurveAgreement final_vs_data;  ///< the report's final model (IEEE terms + the model check's effects, or the split)
+  double worst_avar_ratio_vs_ieee = 1;  ///< max over the same points of the AVAR ratio GMWM / IEEE model (or inverse)
+};
+
+/// WV and model selection on one gap-free segment of rate samples. Never throws: ok = false with a message.
+GmwmAxis gmwmStage(const std::vector<double>& rate, double tau0, const GmwmOptions& options = {});
+/// Fills the closed-loop comparison (ieee_model_var: the IEEE model's AVAR at oadev's points).
+/// final_model_var (optional): the report's final model at the same points.
+void gmwmCompare(GmwmAxis* g, const DeviationCurve& oadev, const std::vector<double>& ieee_model_var,
+                 const std::vector<double>& final_model_var = {});
+
+}  // namespace gyro_allan

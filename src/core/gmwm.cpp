@@ -1,0 +1,750 @@
+// GMWM: Haar MODWT wavelet variance, closed-form model wavelet variances, efficient fit (own Levenberg-Marquardt on
+// log parameters), model selection and discretization of the fitted bias model.
+#include "gyro_allan/gmwm.hpp"
+
+#include <algorithm>
+#include <cctype>
+#include <functional>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+#include <boost/math/distributions/chi_squared.hpp>
+
+namespace gyro_allan {
+
+// ---- Wavelet variance --------------------------------------------------------------------------------------------
+
+WaveletVariance haarWaveletVariance(const std::vector<double>& x, double tau0, double confidence,
+                                    int max_fraction_inv) {
+  if (!(tau0 > 0) || !std::isfinite(tau0)) throw std::invalid_argument("haarWaveletVariance: tau0 must be > 0");
+  if (!(confidence > 0 && confidence < 1)) throw std::invalid_argument("haarWaveletVariance: confidence in (0, 1)");
+  if (max_fraction_inv < 2) throw std::invalid_argument("haarWaveletVariance: max_fraction_inv must be >= 2");
+  const int64_t n = static_cast<int64_t>(x.size());
+  if (n < 8) throw std::invalid_argument("haarWaveletVariance: fewer than 8 samples");
+  long double mean = 0;
+  for (double v : x) {
+    if (!std::isfinite(v)) throw std::invalid_argument("haarWaveletVariance: a sample is not finite");
+    mean += v;
+  }
+  mean /= n;
+  // Prefix sums of the centred samples (the mean changes no Haar coefficient), accumulated in long double and stored
+  // as double (8 bytes per sample: a 1e8-sample record needs 0.8 GB, not 1.6).
+  std::vector<double> p(static_cast<size_t>(n) + 1, 0.0);
+  long double acc = 0;
+  for (int64_t i = 0; i < n; ++i) p[i + 1] = static_cast<double>(acc += static_cast<long double>(x[i]) - mean);
+  WaveletVariance wv;
+  wv.tau0 = tau0;
+  wv.n = n;
+  wv.confidence = confidence;
+  const double alpha = 1.0 - confidence;
+  for (int j = 1;; ++j) {
+    const int64_t L = int64_t{1} << j;
+    if (L * max_fraction_inv > n) break;
+    const int64_t m = L / 2;
+    long double sum = 0;
+    for (int64_t t = L; t <= n; ++t) {  // coefficient ending at sample t-1 uses p[t], p[t-m], p[t-L]
+      const long double w = (static_cast<long double>(p[t]) - 2.0L * p[t - m] + p[t - L]) / (2.0L * m);
+      sum += w * w;
+    }
+    const int64_t M = n - L + 1;
+    const double nu2 = static_cast<double>(sum / M);
+    const double eta = std::max(static_cast<double>(M) / static_cast<double>(L), 1.0);
+    boost::math::chi_squared chi(eta);
+    wv.level.push_back(j);
+    wv.scale.push_back(static_cast<double>(L) * tau0);
+    wv.nu2.push_back(nu2);
+    wv.n_coeffs.push_back(M);
+    wv.eta.push_back(eta);
+    wv.lo.push_back(eta * nu2 / boost::math::quantile(chi, 1.0 - alpha / 2));
+    wv.hi.push_back(eta * nu2 / boost::math::quantile(chi, alpha / 2));
+  }
+  if (wv.level.empty()) throw std::invalid_argument("haarWaveletVariance: record too short for level 1");
+  return wv;
+}
+
+// ---- Closed forms ---------------------------------------------------------------------------------------------------
+
+double wvWhite(double s2, double tau) { return s2 / tau; }
+double wvQuantization(double q2, double tau) { return 6.0 * q2 / (tau * tau); }
+double wvRandomWalk(double g2, double tau) { return g2 * (tau * tau + 2.0) / (12.0 * tau); }
+double wvDrift(double w2, double tau) { return w2 * tau * tau / 16.0; }
+
+namespace {
+/// AR(1) WV per unit STATIONARY variance, phi = exp(-a), scale tau = 2m samples: AVAR(m) / 2 with
+/// AVAR(m) = (Var(S_m) - Cov(S_m, S'_m)) / m^2 = (m + phi (2 m e - 2 u - u^2) / e^2) / m^2, e = 1 - phi,
+/// u = 1 - phi^m (the same quantity as the paper's closed form, written with expm1 to avoid cancellation).
+double ar1UnitWv(double a, double tau) {
+  // Long double: the bracket is of order m a^2 while its terms are of order m a, so near phi = 1 (tc of 10^8
+  // samples) double would keep only a few digits; long double keeps ~1e-4 relative in the worst case (m = 2..4).
+  const long double m = tau / 2.0L;
+  if (a > 700) return 1.0 / tau;  // phi = 0: white
+  const long double al = a;
+  const long double phi = std::exp(-al);
+  const long double e = -std::expm1(-al);
+  const long double u = -std::expm1(-m * al);
+  const long double bracket = 2.0L * m * e - 2.0L * u - u * u;
+  const double avar = static_cast<double>((m + phi * bracket / (e * e)) / (m * m));
+  return std::max(avar, 0.0) / 2.0;
+}
+}  // namespace
+
+double wvAr1(double phi, double s2, double tau) {
+  if (!(phi >= 0 && phi < 1)) throw std::invalid_argument("wvAr1: phi must be in [0, 1)");
+  const double a = phi > 0 ? -std::log(phi) : 1e300;
+  const double v = s2 / (1.0 - phi * phi);
+  return v * ar1UnitWv(a, tau);
+}
+
+double wvFromAutocovariance(const std::vector<double>& acf, int64_t tau) {
+  if (tau < 2 || tau % 2) throw std::invalid_argument("wvFromAutocovariance: tau must be even and >= 2");
+  const int64_t m = tau / 2;
+  std::vector<double> h(static_cast<size_t>(tau));
+  for (int64_t l = 0; l < tau; ++l) h[l] = (l < m ? 1.0 : -1.0) / static_cast<double>(tau);
+  double s = 0;
+  for (int64_t l = 0; l < tau; ++l)
+    for (int64_t k = 0; k < tau; ++k) {
+      const size_t lag = static_cast<size_t>(std::llabs(l - k));
+      if (lag < acf.size()) s += h[l] * h[k] * acf[lag];
+    }
+  return s;
+}
+
+// ---- Models -----------------------------------------------------------------------------------------------------
+
+std::string GmwmModel::name() const {
+  std::string s;
+  auto add = [&](const std::string& t) { s += (s.empty() ? "" : "+") + t; };
+  if (quantization) add("QN");
+  if (white) add("WN");
+  if (gauss_markov == 1) add("GM");
+  if (gauss_markov > 1) add(std::to_string(gauss_markov) + "GM");
+  if (random_walk) add("RW");
+  if (drift) add("DR");
+  return s.empty() ? "none" : s;
+}
+
+int GmwmModel::parameters() const {
+  return (white ? 1 : 0) + (quantization ? 1 : 0) + (random_walk ? 1 : 0) + (drift ? 1 : 0) + 2 * gauss_markov;
+}
+
+GmwmModel parseGmwmModel(const std::string& text) {
+  GmwmModel m;
+  m.white = false;
+  size_t pos = 0;
+  if (text.empty()) throw std::invalid_argument("GMWM model: empty");
+  while (pos <= text.size()) {
+    size_t end = text.find('+', pos);
+    if (end == std::string::npos) end = text.size();
+    std::string t = text.substr(pos, end - pos);
+    for (auto& c : t) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+    if (t == "WN") m.white = true;
+    else if (t == "QN") m.quantization = true;
+    else if (t == "RW") m.random_walk = true;
+    else if (t == "DR") m.drift = true;
+    else if (t.size() >= 2 && t.substr(t.size() - 2) == "GM") {
+      const std::string k = t.substr(0, t.size() - 2);
+      int count = 1;
+      if (!k.empty()) {
+        if (k.size() > 1 || !std::isdigit(static_cast<unsigned char>(k[0])))
+          throw std::invalid_argument("GMWM model: bad term '" + t + "' in '" + text + "'");
+        count = k[0] - '0';
+      }
+      m.gauss_markov += count;
+    } else {
+      throw std::invalid_argument("GMWM model: unknown term '" + t + "' in '" + text + "' (WN, QN, RW, DR, GM, kGM)");
+    }
+    pos = end + 1;
+  }
+  if (m.gauss_markov > 5) throw std::invalid_argument("GMWM model: at most 5 GM terms");
+  if (m.parameters() == 0) throw std::invalid_argument("GMWM model: no term");
+  return m;
+}
+
+namespace {
+
+// Internal parameters (sample units, logs): [WN log s2][QN log q2][RW log g2][DR log w2][GM_i log v_i, log tc_i].
+struct Layout {
+  int wn = -1, qn = -1, rw = -1, dr = -1, gm0 = -1, p = 0, n_gm = 0;
+  Layout() = default;
+  explicit Layout(const GmwmModel& m) {
+    if (m.white) wn = p++;
+    if (m.quantization) qn = p++;
+    if (m.random_walk) rw = p++;
+    if (m.drift) dr = p++;
+    n_gm = m.gauss_markov;
+    if (n_gm > 0) gm0 = p;
+    p += 2 * n_gm;
+  }
+};
+
+double modelWvAt(const Layout& L, const Eigen::VectorXd& th, double tau) {
+  double s = 0;
+  if (L.wn >= 0) s += wvWhite(std::exp(th[L.wn]), tau);
+  if (L.qn >= 0) s += wvQuantization(std::exp(th[L.qn]), tau);
+  if (L.rw >= 0) s += wvRandomWalk(std::exp(th[L.rw]), tau);
+  if (L.dr >= 0) s += wvDrift(std::exp(th[L.dr]), tau);
+  for (int i = 0; i < L.n_gm; ++i)
+    s += std::exp(th[L.gm0 + 2 * i]) * ar1UnitWv(std::exp(-th[L.gm0 + 2 * i + 1]), tau);
+  return s;
+}
+
+/// Two-sided spectrum (sample units, f in cycles/sample) of the stochastic part, sin2 = sin^2(pi f).
+double spectrum(const Layout& L, const Eigen::VectorXd& th, double sin2) {
+  double s = 0;
+  if (L.wn >= 0) s += std::exp(th[L.wn]);
+  if (L.qn >= 0) s += std::exp(th[L.qn]) * 4.0 * sin2;
+  if (L.rw >= 0) s += std::exp(th[L.rw]) / (4.0 * sin2);
+  for (int i = 0; i < L.n_gm; ++i) {
+    const double v = std::exp(th[L.gm0 + 2 * i]);
+    const double a = std::exp(-th[L.gm0 + 2 * i + 1]);
+    const double phi = std::exp(-a), e = -std::expm1(-a);
+    const double innov = v * e * (1.0 + phi);  // v (1 - phi^2)
+    s += innov / (e * e + 4.0 * phi * sin2);
+  }
+  return s;
+}
+
+// 8-point Gauss-Legendre on [-1, 1].
+const double kGlX[8] = {-0.9602898564975363, -0.7966664774136267, -0.5255324099163290, -0.1834346424956498,
+                        0.1834346424956498,  0.5255324099163290,  0.7966664774136267,  0.9602898564975363};
+const double kGlW[8] = {0.1012285362903763, 0.2223810344533745, 0.3137066458778873, 0.3626837833783620,
+                        0.3626837833783620, 0.3137066458778873, 0.2223810344533745, 0.1012285362903763};
+
+/// Mean over a period of sin^4(x) sin^4(2^d x) (d = 0: sin^8, 35/128); exact trapezoid on a trig polynomial.
+double periodMean(int d) {
+  if (d > 8) return 9.0 / 64.0;
+  const int n = 1 << (d + 6);
+  double s = 0;
+  for (int i = 0; i < n; ++i) {
+    const double x = M_PI * (i + 0.5) / n;
+    const double a = std::sin(x), b = std::sin(std::ldexp(x, d));
+    s += a * a * a * a * b * b * b * b;
+  }
+  return s / n;
+}
+
+}  // namespace
+
+std::vector<double> gmwmModelWv(const WaveletVariance& wv, const GmwmModel& model, const Eigen::VectorXd& theta) {
+  const Layout L(model);
+  std::vector<double> out(wv.level.size());
+  for (size_t j = 0; j < out.size(); ++j) out[j] = modelWvAt(L, theta, std::ldexp(1.0, wv.level[j]));
+  return out;
+}
+
+Eigen::MatrixXd gmwmCovariance(const WaveletVariance& wv, const GmwmModel& model, const Eigen::VectorXd& theta) {
+  const Layout L(model);
+  const int J = static_cast<int>(wv.level.size());
+  Eigen::MatrixXd C = Eigen::MatrixXd::Zero(J, J);
+  static const std::vector<double> cmean = [] {
+    std::vector<double> c;
+    for (int d = 0; d <= 9; ++d) c.push_back(periodMean(d));
+    return c;
+  }();
+  const double kPeriods = 32;
+  for (int a = 0; a < J; ++a)
+    for (int b = a; b < J; ++b) {
+      const double mj = std::ldexp(1.0, wv.level[a] - 1), mk = std::ldexp(1.0, wv.level[b] - 1);
+      const int d = wv.level[b] - wv.level[a];
+      // envelope E(f) = S(f)^2 / (mj^2 mk^2 sin^4(pi f)); integrand = sin^4(pi f mj) sin^4(pi f mk) E(f)
+      auto envelope = [&](double f, double* s2out) {
+        const double sn = std::sin(M_PI * f), s2 = sn * sn;
+        const double S = spectrum(L, theta, s2);
+        if (s2out) *s2out = s2;
+        return S * S / (mj * mj * mk * mk * s2 * s2);
+      };
+      auto full = [&](double f) {
+        const double a4 = std::pow(std::sin(M_PI * f * mj), 4), b4 = std::pow(std::sin(M_PI * f * mk), 4);
+        return a4 * b4 * envelope(f, nullptr);
+      };
+      auto slowOnly = [&](double f) {  // fast factor replaced by its mean 3/8
+        return std::pow(std::sin(M_PI * f * mj), 4) * 0.375 * envelope(f, nullptr);
+      };
+      auto panels = [&](double f_from, double f_to, double width, auto&& g) {
+        double s = 0;
+        for (double lo = f_from; lo < f_to - 1e-300; lo += width) {
+          const double hi = std::min(lo + width, f_to), c = 0.5 * (lo + hi), h = 0.5 * (hi - lo);
+          for (int q = 0; q < 8; ++q) s += kGlW[q] * h * g(c + h * kGlX[q]);
+        }
+        return s;
+      };
+      double integral = 0, f_done;
+      if (d <= 4) {
+        f_done = std::min(0.5, kPeriods / mj);
+        integral += panels(0.0, f_done, 1.0 / mk, full);
+      } else {
+        const double f0 = std::min(0.5, kPeriods / mk);
+        integral += panels(0.0, f0, 1.0 / mk, full);
+        f_done = std::min(0.5, kPeriods / mj);
+        if (f_done > f0) integral += panels(f0, f_done, 1.0 / mj, slowOnly);
+      }
+      if (f_done < 0.5) {  // both factors averaged over their common period; envelope on a log grid
+        const double c = cmean[static_cast<size_t>(std::min(d, 9))];
+        const int np = 48;
+        const double l0 = std::log(f_done), l1 = std::log(0.5);
+        double s = 0;
+        for (int i = 0; i < np; ++i) {
+          const double lo = l0 + (l1 - l0) * i / np, hi = l0 + (l1 - l0) * (i + 1) / np;
+          const double cc = 0.5 * (lo + hi), h = 0.5 * (hi - lo);
+          for (int q = 0; q < 8; ++q) {
+            const double f = std::exp(cc + h * kGlX[q]);
+            s += kGlW[q] * h * f * envelope(f, nullptr);
+          }
+        }
+        integral += c * s;
+      }
+      const double Mj = static_cast<double>(wv.n_coeffs[a]), Mk = static_cast<double>(wv.n_coeffs[b]);
+      const double v = 2.0 * std::min(Mj, Mk) / (Mj * Mk) * 2.0 * integral;
+      C(a, b) = C(b, a) = v;
+    }
+  return C;
+}
+
+namespace {
+
+struct Problem {
+  const WaveletVariance* wv;
+  Layout L;
+  Eigen::VectorXd y;   // nu_hat
+  Eigen::MatrixXd Winv_chol_inv;  // whitening: r_w = T r with T' T = W
+  Eigen::VectorXd lo, hi;         // parameter bounds
+};
+
+Eigen::VectorXd residual(const Problem& P, const Eigen::VectorXd& th) {
+  const int J = static_cast<int>(P.y.size());
+  Eigen::VectorXd r(J);
+  for (int j = 0; j < J; ++j) r[j] = P.y[j] - modelWvAt(P.L, th, std::ldexp(1.0, P.wv->level[j]));
+  return P.Winv_chol_inv * r;
+}
+
+Eigen::MatrixXd jacobian(const Problem& P, const Eigen::VectorXd& th) {
+  // d(model)/d(theta) (unwhitened), central differences on the log parameters.
+  const int J = static_cast<int>(P.y.size());
+  Eigen::MatrixXd D(J, th.size());
+  for (int k = 0; k < th.size(); ++k) {
+    Eigen::VectorXd tp = th, tm = th;
+    const double h = 1e-5;
+    tp[k] += h;
+    tm[k] -= h;
+    for (int j = 0; j < J; ++j) {
+      const double tau = std::ldexp(1.0, P.wv->level[j]);
+      D(j, k) = (modelWvAt(P.L, tp, tau) - modelWvAt(P.L, tm, tau)) / (2 * h);
+    }
+  }
+  return D;
+}
+
+double levenbergMarquardt(const Problem& P, Eigen::VectorXd* th, int max_iter, int* iters) {
+  Eigen::VectorXd x = th->cwiseMax(P.lo).cwiseMin(P.hi);
+  Eigen::VectorXd r = residual(P, x);
+  double cost = r.squaredNorm();
+  double lambda = 1e-3;
+  int it = 0;
+  for (; it < max_iter; ++it) {
+    const Eigen::MatrixXd Jw = -(P.Winv_chol_inv * jacobian(P, x));
+    const Eigen::MatrixXd A = Jw.transpose() * Jw;
+    const Eigen::VectorXd g = Jw.transpose() * r;
+    bool improved = false;
+    for (int tries = 0; tries < 12; ++tries) {
+      Eigen::MatrixXd Ad = A;
+      for (int k = 0; k < A.rows(); ++k) Ad(k, k) += lambda * (A(k, k) + 1e-12);
+      const Eigen::VectorXd step = Ad.ldlt().solve(-g);
+      if (!step.allFinite()) {
+        lambda *= 10;
+        continue;
+      }
+      Eigen::VectorXd xn = (x + step).cwiseMax(P.lo).cwiseMin(P.hi);
+      const Eigen::VectorXd rn = residual(P, xn);
+      const double cn = rn.squaredNorm();
+      if (std::isfinite(cn) && cn < cost) {
+        const double rel = (cost - cn) / std::max(cost, 1e-300);
+        x = xn;
+        r = rn;
+        cost = cn;
+        lambda = std::max(lambda / 3, 1e-9);
+        improved = true;
+        if (rel < 1e-10) it = max_iter;  // converged
+        break;
+      }
+      lambda *= 10;
+    }
+    if (!improved) break;
+  }
+  *th = x;
+  if (iters) *iters += it;
+  return cost;
+}
+
+void setWeights(Problem* P, const Eigen::MatrixXd& omega) {
+  // W = Omega^-1; whitening T = L^-1 with Omega = L L'.
+  Eigen::LLT<Eigen::MatrixXd> llt(omega);
+  const int J = static_cast<int>(omega.rows());
+  if (llt.info() != Eigen::Success) {
+    Eigen::MatrixXd d = Eigen::MatrixXd::Zero(J, J);
+    for (int j = 0; j < J; ++j) d(j, j) = 1.0 / std::sqrt(std::max(omega(j, j), 1e-300));
+    P->Winv_chol_inv = d;
+    return;
+  }
+  P->Winv_chol_inv = llt.matrixL().solve(Eigen::MatrixXd::Identity(J, J));
+}
+
+double nearestNu(const WaveletVariance& wv, double tau_samples) {
+  size_t best = 0;
+  for (size_t j = 0; j < wv.level.size(); ++j)
+    if (std::fabs(std::log(std::ldexp(1.0, wv.level[j]) / tau_samples)) <
+        std::fabs(std::log(std::ldexp(1.0, wv.level[best]) / tau_samples)))
+      best = j;
+  return wv.nu2[best];
+}
+
+}  // namespace
+
+GmwmFit fitGmwm(const WaveletVariance& wv, const GmwmModel& model, const GmwmOptions& options) {
+  GmwmFit fit;
+  fit.model = model;
+  const Layout L(model);
+  const int J = static_cast<int>(wv.level.size());
+  if (L.p == 0) {
+    fit.message = "model has no term";
+    return fit;
+  }
+  if (J <= L.p) {
+    fit.message = "too few wavelet levels (" + std::to_string(J) + ") for " + std::to_string(L.p) + " parameters";
+    return fit;
+  }
+  for (double v : wv.nu2)
+    if (!(v > 0) || !std::isfinite(v)) {
+      fit.message = "a wavelet variance is zero or not finite (constant or broken data)";
+      return fit;
+    }
+  Problem P;
+  P.wv = &wv;
+  P.L = L;
+  P.y = Eigen::Map<const Eigen::VectorXd>(wv.nu2.data(), J);
+  const double tau_max = std::ldexp(1.0, wv.level.back());
+  const double nu_scale = *std::max_element(wv.nu2.begin(), wv.nu2.end());
+  const double tiny = std::log(nu_scale * 1e-14), huge = std::log(nu_scale * 1e8 * tau_max);
+  P.lo = Eigen::VectorXd::Constant(L.p, tiny - std::log(tau_max * tau_max));
+  P.hi = Eigen::VectorXd::Constant(L.p, huge);
+  for (int i = 0; i < L.n_gm; ++i) {
+    P.lo[L.gm0 + 2 * i + 1] = std::log(0.25);                  // correlation time >= a quarter sample
+    P.hi[L.gm0 + 2 * i + 1] = std::log(4.0 * static_cast<double>(wv.n));  // <= 4 record lengths
+  }
+  // First pass: diagonal weights from the data's own WV (2 nu_hat^4 / eta).
+  {
+    Eigen::MatrixXd d = Eigen::MatrixXd::Zero(J, J);
+    for (int j = 0; j < J; ++j) d(j, j) = std::sqrt(wv.eta[j] / 2.0) / wv.nu2[j];
+    P.Winv_chol_inv = d;
+  }
+  // Robust starting values: WN from level 1, RW from the last level, GMs placed over a grid of correlation times with
+  // their variance from the WV near their peak scale (~4 tc); every combination is refined, the best kept.
+  std::vector<double> tcs;
+  for (int j = 1; j <= wv.level.back() - 1; j += 2) tcs.push_back(std::ldexp(1.0, j) / 2.0);
+  if (tcs.empty()) tcs.push_back(1.0);
+  std::vector<std::vector<double>> combos;
+  if (L.n_gm == 0) combos.push_back({});
+  else {
+    std::vector<int> idx(static_cast<size_t>(L.n_gm));
+    const int T = static_cast<int>(tcs.size());
+    std::function<void(int, int)> rec = [&](int pos, int from) {
+      if (pos == L.n_gm) {
+        std::vector<double> c;
+        for (int i : idx) c.push_back(tcs[static_cast<size_t>(i)]);
+        combos.push_back(c);
+        return;
+      }
+      for (int i = from; i < T; ++i) {
+        idx[static_cast<size_t>(pos)] = i;
+        rec(pos + 1, i + 1);
+      }
+    };
+    rec(0, 0);
+    if (combos.empty()) {  // more GMs than grid points: spread them anyway
+      std::vector<double> c;
+      for (int i = 0; i < L.n_gm; ++i) c.push_back(std::ldexp(1.0, 2 * i));
+      combos.push_back(c);
+    }
+  }
+  double best_cost = std::numeric_limits<double>::infinity();
+  Eigen::VectorXd best;
+  int iters = 0;
+  std::vector<std::pair<double, Eigen::VectorXd>> starts;
+  for (const auto& c : combos) {
+    Eigen::VectorXd th(L.p);
+    const double share = 1.0 / (1 + L.n_gm + (model.random_walk ? 1 : 0));
+    if (L.wn >= 0) th[L.wn] = std::log(2.0 * wv.nu2[0] * 0.9);
+    if (L.qn >= 0) th[L.qn] = std::log(wv.nu2[0] * 4.0 / 6.0 * 0.1);
+    if (L.rw >= 0) th[L.rw] = std::log(12.0 * wv.nu2.back() / tau_max * share);
+    if (L.dr >= 0) th[L.dr] = std::log(16.0 * wv.nu2.back() / (tau_max * tau_max) * share);
+    for (int i = 0; i < L.n_gm; ++i) {
+      const double tc = c[static_cast<size_t>(i)];
+      const double peak = ar1UnitWv(1.0 / tc, std::max(2.0, 4.0 * tc));
+      th[L.gm0 + 2 * i] = std::log(nearestNu(wv, 4.0 * tc) / peak * share);
+      th[L.gm0 + 2 * i + 1] = std::log(tc);
+    }
+    starts.push_back({levenbergMarquardt(P, &th, combos.size() > 3 ? 25 : 200, &iters), th});
+  }
+  // Many starts: each ran a short refinement; the best three are refined fully.
+  std::sort(starts.begin(), starts.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  for (size_t i = 0; i < std::min<size_t>(3, starts.size()); ++i) {
+    Eigen::VectorXd th = starts[i].second;
+    const double cost = combos.size() > 3 ? levenbergMarquardt(P, &th, 200, &iters) : starts[i].first;
+    if (cost < best_cost) {
+      best_cost = cost;
+      best = th;
+    }
+  }
+  // Efficient weighting: Omega at the current estimate, refit, repeat.
+  Eigen::MatrixXd omega;
+  for (int k = 0; k < std::max(1, options.weighting_iterations); ++k) {
+    omega = gmwmCovariance(wv, model, best);
+    setWeights(&P, omega);
+    levenbergMarquardt(P, &best, 200, &iters);
+  }
+  omega = gmwmCovariance(wv, model, best);
+  setWeights(&P, omega);
+  const Eigen::VectorXd rw = residual(P, best);
+  fit.chi2 = rw.squaredNorm();
+  fit.tau0 = wv.tau0;
+  fit.iterations = iters;
+  fit.theta = best;
+  // Sort GMs by correlation time.
+  {
+    std::vector<std::pair<double, double>> g;
+    for (int i = 0; i < L.n_gm; ++i) g.push_back({best[L.gm0 + 2 * i + 1], best[L.gm0 + 2 * i]});
+    std::sort(g.begin(), g.end());
+    for (int i = 0; i < L.n_gm; ++i) {
+      fit.theta[L.gm0 + 2 * i] = g[static_cast<size_t>(i)].second;
+      fit.theta[L.gm0 + 2 * i + 1] = g[static_cast<size_t>(i)].first;
+    }
+  }
+  const Eigen::MatrixXd Jw = P.Winv_chol_inv * jacobian(P, fit.theta);
+  const Eigen::MatrixXd info = Jw.transpose() * Jw;
+  {
+    // Pseudo-inverse in correlation form: a direction the data do not inform (a term at its bound) gets an
+    // effectively infinite variance instead of whatever a near-singular solve returns.
+    Eigen::VectorXd d(L.p);
+    for (int k = 0; k < L.p; ++k) d[k] = info(k, k) > 0 ? 1.0 / std::sqrt(info(k, k)) : 1e150;
+    const Eigen::MatrixXd Cn = d.asDiagonal() * info * d.asDiagonal();
+    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(Cn);
+    Eigen::VectorXd inv = es.eigenvalues();
+    for (int k = 0; k < L.p; ++k) inv[k] = inv[k] > 1e-10 ? 1.0 / inv[k] : 1e20;
+    fit.theta_cov = d.asDiagonal() * (es.eigenvectors() * inv.asDiagonal() * es.eigenvectors().transpose()) *
+                    d.asDiagonal();
+  }
+  fit.dof = J - L.p;
+  fit.chi2_p = fit.dof > 0 ? boost::math::cdf(boost::math::complement(boost::math::chi_squared(fit.dof), fit.chi2)) : 1.0;
+  fit.criterion = fit.chi2 + options.penalty_per_parameter * L.p;
+  fit.model_nu2 = gmwmModelWv(wv, model, fit.theta);
+  // SI values; sd of exp(theta/2)-type quantities by the delta method.
+  const double t0 = wv.tau0;
+  auto sdOf = [&](int k) { return std::sqrt(std::max(fit.theta_cov(k, k), 0.0)); };
+  if (L.wn >= 0) {
+    fit.N = std::sqrt(std::exp(fit.theta[L.wn]) * t0);
+    fit.N_sd = fit.N * sdOf(L.wn) / 2;
+  }
+  if (L.qn >= 0) {
+    fit.Q = std::sqrt(std::exp(fit.theta[L.qn])) * t0;
+    fit.Q_sd = fit.Q * sdOf(L.qn) / 2;
+  }
+  if (L.rw >= 0) {
+    fit.K = std::sqrt(std::exp(fit.theta[L.rw]) / t0);
+    fit.K_sd = fit.K * sdOf(L.rw) / 2;
+  }
+  if (L.dr >= 0) {
+    fit.R = std::sqrt(std::exp(fit.theta[L.dr])) / t0;
+    fit.R_sd = fit.R * sdOf(L.dr) / 2;
+  }
+  for (int i = 0; i < L.n_gm; ++i) {
+    GaussMarkovTerm g;
+    g.sigma = std::sqrt(std::exp(fit.theta[L.gm0 + 2 * i]));
+    g.sigma_sd = g.sigma * sdOf(L.gm0 + 2 * i) / 2;
+    g.tc = std::exp(fit.theta[L.gm0 + 2 * i + 1]) * t0;
+    g.tc_sd = g.tc * sdOf(L.gm0 + 2 * i + 1);
+    fit.gm.push_back(g);
+  }
+  fit.identified = true;
+  auto check = [&](int k, const std::string& what) {
+    if (k >= 0 && !(sdOf(k) < options.max_log_sd)) {
+      fit.identified = false;
+      fit.unidentified += (fit.unidentified.empty() ? "" : ", ") + what;
+    }
+  };
+  // WN is every model's base term and QN a sensor property: selection is among the coloured terms, so only those must
+  // be supported (a WN traded against a sub-sample GM, as on sensors with an internal low-pass, is no reason to
+  // reject the model).
+  check(L.rw, "RW");
+  check(L.dr, "DR");
+  for (int i = 0; i < L.n_gm; ++i) {
+    check(L.gm0 + 2 * i, "GM" + std::to_string(i + 1) + " sigma");
+    check(L.gm0 + 2 * i + 1, "GM" + std::to_string(i + 1) + " tc");
+  }
+  fit.ok = fit.theta.allFinite() && std::isfinite(fit.chi2);
+  if (!fit.ok) fit.message = "the fit did not converge to finite values";
+  return fit;
+}
+
+GmwmSelection selectGmwm(const WaveletVariance& wv, const GmwmOptions& options) {
+  std::vector<GmwmModel> cands = options.candidates;
+  if (cands.empty()) {
+    auto base = [&](int k, bool rw) {
+      GmwmModel m;
+      m.gauss_markov = k;
+      m.random_walk = rw;
+      m.quantization = options.quantization;
+      m.drift = options.drift;
+      return m;
+    };
+    cands.push_back(base(0, true));
+    for (int k = 1; k <= options.max_gm; ++k) {
+      cands.push_back(base(k, false));
+      cands.push_back(base(k, true));
+    }
+  }
+  GmwmSelection sel;
+  for (const auto& m : cands) {
+    sel.fits.push_back(fitGmwm(wv, m, options));
+    const GmwmFit& f = sel.fits.back();
+    (void)f;
+  }
+  for (int pass = 0; pass < 2 && sel.best < 0; ++pass)
+    for (size_t i = 0; i < sel.fits.size(); ++i) {
+      const GmwmFit& f = sel.fits[i];
+      if (!f.ok || (pass == 0 && !f.identified)) continue;
+      if (sel.best < 0 || f.criterion < sel.fits[static_cast<size_t>(sel.best)].criterion) sel.best = static_cast<int>(i);
+    }
+  return sel;
+}
+
+// ---- Model AVAR and discretization ---------------------------------------------------------------------------------
+
+double gmwmModelWvAt(const GmwmFit& fit, double tau0, int level) {
+  (void)tau0;
+  return modelWvAt(Layout(fit.model), fit.theta, std::ldexp(1.0, level));
+}
+
+double gmwmModelAvar(const GmwmFit& fit, double tau0, int64_t m) {
+  (void)tau0;
+  if (m < 1) throw std::invalid_argument("gmwmModelAvar: m must be >= 1");
+  return 2.0 * modelWvAt(Layout(fit.model), fit.theta, 2.0 * static_cast<double>(m));
+}
+
+DiscreteNoiseModel discretize(const GmwmFit& fit, double dt) {
+  if (!(dt > 0) || !std::isfinite(dt)) throw std::invalid_argument("discretize: dt must be > 0");
+  DiscreteNoiseModel d;
+  d.dt = dt;
+  double folded_var = 0;
+  int n_gm_states = 0;
+  for (const auto& g : fit.gm) {
+    if (g.tc < dt / 2) {
+      // Long-run equivalent white noise of the sampled AR(1): sigma^2 tau0 (1 + phi0) / (1 - phi0) = N_eq^2.
+      const double t0 = fit.tau0 > 0 ? fit.tau0 : dt;
+      const double x = t0 / g.tc;
+      const double neq2 = g.sigma * g.sigma * t0 * (2.0 - (-std::expm1(-x))) / (-std::expm1(-x));
+      folded_var += neq2 / dt;
+    } else {
+      ++n_gm_states;
+    }
+  }
+  const int n = n_gm_states + (fit.K > 0 ? 1 : 0);
+  d.Phi = Eigen::MatrixXd::Zero(n, n);
+  d.Qd = Eigen::MatrixXd::Zero(n, n);
+  int k = 0;
+  for (size_t i = 0; i < fit.gm.size(); ++i) {
+    if (fit.gm[i].tc < dt / 2) {
+      d.folded.push_back("gm" + std::to_string(i + 1));
+      continue;
+    }
+    const double phi = std::exp(-dt / fit.gm[i].tc);
+    d.Phi(k, k) = phi;
+    d.Qd(k, k) = fit.gm[i].sigma * fit.gm[i].sigma * (-std::expm1(-2.0 * dt / fit.gm[i].tc));
+    d.states.push_back("gm" + std::to_string(i + 1));
+    ++k;
+  }
+  if (fit.K > 0) {
+    d.Phi(k, k) = 1.0;
+    d.Qd(k, k) = fit.K * fit.K * dt;
+    d.states.push_back("rw");
+  }
+  d.white_variance = fit.N * fit.N / dt + folded_var;
+  d.quantization_variance = 2.0 * fit.Q * fit.Q / (dt * dt);
+  return d;
+}
+
+// ---- Closed loop and stage -------------------------------------------------------------------------------------------
+
+CurveAgreement curveAgreement(const DeviationCurve& curve, const std::vector<double>& model_var, double tau_min,
+                              double tau_max) {
+  CurveAgreement c;
+  c.tau_min = tau_min;
+  c.tau_max = tau_max;
+  double ss = 0;
+  for (size_t i = 0; i < curve.points.size() && i < model_var.size(); ++i) {
+    const DeviationPoint& p = curve.points[i];
+    if (p.tau < tau_min * (1 - 1e-9) || p.tau > tau_max * (1 + 1e-9) || !(p.var > 0) || !(model_var[i] > 0)) continue;
+    const double md = std::sqrt(model_var[i]);
+    ++c.points;
+    if (md >= p.dev_lo && md <= p.dev_hi) ++c.within_ci;
+    const double r = md / p.dev, rr = std::max(r, 1 / r);
+    if (rr > c.worst_ratio) {
+      c.worst_ratio = rr;
+      c.worst_tau = p.tau;
+    }
+    ss += std::pow(std::log10(p.dev / md), 2);
+  }
+  if (c.points > 0) c.rms_log10 = std::sqrt(ss / c.points);
+  return c;
+}
+
+GmwmAxis gmwmStage(const std::vector<double>& rate, double tau0, const GmwmOptions& options) {
+  GmwmAxis g;
+  g.tau0 = tau0;
+  g.record_s = static_cast<double>(rate.size()) * tau0;
+  g.penalty_per_parameter = options.penalty_per_parameter;
+  try {
+    g.wv = haarWaveletVariance(rate, tau0, options.confidence);
+  } catch (const std::exception& e) {
+    g.message = std::string("wavelet variance: ") + e.what();
+    return g;
+  }
+  g.selection = selectGmwm(g.wv, options);
+  if (g.selection.best < 0) {
+    g.message = "no candidate model could be fitted";
+    for (const auto& f : g.selection.fits)
+      if (!f.message.empty()) {
+        g.message += " (" + f.model.name() + ": " + f.message + ")";
+        break;
+      }
+    return g;
+  }
+  const GmwmFit& f = g.selection.chosen();
+  for (size_t j = 0; j < g.wv.nu2.size(); ++j) {
+    ++g.wv_points;
+    if (f.model_nu2[j] >= g.wv.lo[j] && f.model_nu2[j] <= g.wv.hi[j]) ++g.wv_within_ci;
+  }
+  g.ok = true;
+  return g;
+}
+
+void gmwmCompare(GmwmAxis* g, const DeviationCurve& oadev, const std::vector<double>& ieee_model_var,
+                 const std::vector<double>& final_model_var) {
+  if (!g || !g->ok) return;
+  const GmwmFit& f = g->selection.chosen();
+  std::vector<double> mv(oadev.points.size());
+  for (size_t i = 0; i < mv.size(); ++i) mv[i] = gmwmModelAvar(f, g->tau0, std::max<int64_t>(1, oadev.points[i].m));
+  const double t_lo = g->tau0, t_hi = g->record_s / 10;
+  g->gmwm_vs_data = curveAgreement(oadev, mv, t_lo, t_hi);
+  g->ieee_vs_data = curveAgreement(oadev, ieee_model_var, t_lo, t_hi);
+  g->final_vs_data = curveAgreement(oadev, final_model_var.empty() ? ieee_model_var : final_model_var, t_lo, t_hi);
+  g->worst_avar_ratio_vs_ieee = 1;
+  for (size_t i = 0; i < mv.size() && i < ieee_model_var.size(); ++i) {
+    const double tau = oadev.points[i].tau;
+    if (tau < t_lo * (1 - 1e-9) || tau > t_hi * (1 + 1e-9) || !(mv[i] > 0) || !(ieee_model_var[i] > 0)) continue;
+    const double r = mv[i] / ieee_model_var[i];
+    g->worst_avar_ratio_vs_ieee = std::max(g->worst_avar_ratio_vs_ieee, std::max(r, 1 / r));
+  }
+  g->compared = true;
+}
+
+}  // namespace gyro_allan

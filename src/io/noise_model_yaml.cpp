@@ -1,0 +1,207 @@
+// Writes noise_model.yaml (the GMWM state-space bias model) and the GMWM summary lines; see README "noise_model.yaml".
+#include "gyro_allan/io/noise_model_yaml.hpp"
+
+#include <cmath>
+#include <cstdio>
+
+namespace gyro_allan {
+namespace {
+
+YAML::Node num(double v) {
+  if (std::isnan(v)) return YAML::Node(".nan");
+  if (std::isinf(v)) return YAML::Node(v > 0 ? ".inf" : "-.inf");
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.10g", v);
+  return YAML::Node(std::string(buf));
+}
+
+YAML::Node valueSd(double value, double sd, const char* unit) {
+  YAML::Node n;
+  n["value"] = num(value);
+  n["sigma"] = num(sd);
+  n["unit"] = unit;
+  return n;
+}
+
+YAML::Node matrix(const Eigen::MatrixXd& m) {
+  YAML::Node rows(YAML::NodeType::Sequence);
+  for (int i = 0; i < m.rows(); ++i) {
+    YAML::Node r(YAML::NodeType::Sequence);
+    r.SetStyle(YAML::EmitterStyle::Flow);
+    for (int j = 0; j < m.cols(); ++j) r.push_back(num(m(i, j)));
+    rows.push_back(r);
+  }
+  return rows;
+}
+
+YAML::Node discreteNode(const GmwmFit& f, double dt) {
+  const DiscreteNoiseModel d = discretize(f, dt);
+  YAML::Node n;
+  n["dt"] = num(dt);
+  n["rate_hz"] = num(1.0 / dt);
+  YAML::Node states(YAML::NodeType::Sequence);
+  states.SetStyle(YAML::EmitterStyle::Flow);
+  for (const auto& s : d.states) states.push_back(s);
+  n["states"] = states;
+  YAML::Node folded(YAML::NodeType::Sequence);
+  folded.SetStyle(YAML::EmitterStyle::Flow);
+  for (const auto& s : d.folded) folded.push_back(s);
+  n["folded_into_white"] = folded;
+  n["Phi"] = matrix(d.Phi);
+  n["Qd"] = matrix(d.Qd);
+  n["measurement_variance"] = num(d.white_variance + d.quantization_variance);
+  n["white_variance"] = num(d.white_variance);
+  n["quantization_variance"] = num(d.quantization_variance);
+  return n;
+}
+
+YAML::Node agreementNode(const CurveAgreement& c) {
+  YAML::Node n;
+  n["points"] = c.points;
+  n["within_ci"] = c.within_ci;
+  n["worst_adev_ratio"] = num(c.worst_ratio);
+  n["worst_at_tau_s"] = num(c.worst_tau);
+  n["rms_log10"] = num(c.rms_log10);
+  return n;
+}
+
+}  // namespace
+
+YAML::Node noiseModelNode(const std::vector<AxisAnalysis>& axes, double filter_rate_hz,
+                          const std::vector<std::string>& sources) {
+  YAML::Node root;
+  root["format"] = "gyro_allan noise_model 1";
+  root["units"] = "SI: rad, rad/s, s";
+  YAML::Node src(YAML::NodeType::Sequence);
+  for (const auto& s : sources) src.push_back(s);
+  root["sources"] = src;
+  root["bias_model"] =
+      "b = sum of the states; x[k+1] = Phi x[k] + w[k], Cov(w) = Qd; measured rate = true rate + b + white noise of "
+      "variance measurement_variance";
+  YAML::Node ax;
+  for (const auto& a : axes) {
+    if (!a.has_gmwm) continue;
+    const GmwmAxis& g = a.gmwm;
+    YAML::Node n;
+    if (!g.ok) {
+      n["error"] = g.message;
+      ax[a.axis] = n;
+      continue;
+    }
+    const GmwmFit& f = g.selection.chosen();
+    n["model"] = f.model.name();
+    char sel[160];
+    std::snprintf(sel, sizeof sel, "smallest chi2 + %g x parameters among fits whose every term is supported (docs/gmwm.md)",
+                  g.penalty_per_parameter);
+    n["selection"] = std::string(sel);
+    YAML::Node cands(YAML::NodeType::Sequence);
+    for (const auto& c : g.selection.fits) {
+      YAML::Node cn;
+      cn["model"] = c.model.name();
+      cn["ok"] = c.ok;
+      cn["criterion"] = num(c.criterion);
+      cn["chi2"] = num(c.chi2);
+      cn["dof"] = c.dof;
+      cn["identified"] = c.identified;
+      if (!c.unidentified.empty()) cn["unidentified"] = c.unidentified;
+      cands.push_back(cn);
+    }
+    n["candidates"] = cands;
+    n["chi2"] = num(f.chi2);
+    n["dof"] = f.dof;
+    n["chi2_p"] = num(f.chi2_p);
+    n["segment_s"] = num(g.record_s);
+    n["data_rate_hz"] = num(1.0 / g.tau0);
+    YAML::Node c;
+    c["angle_random_walk"] = valueSd(f.N, f.N_sd, "rad/sqrt(s)");
+    if (f.model.quantization) c["quantization"] = valueSd(f.Q, f.Q_sd, "rad");
+    if (f.model.random_walk) c["rate_random_walk"] = valueSd(f.K, f.K_sd, "rad/s/sqrt(s)");
+    if (f.model.drift) c["rate_ramp"] = valueSd(f.R, f.R_sd, "rad/s^2");
+    YAML::Node gms(YAML::NodeType::Sequence);
+    for (const auto& t : f.gm) {
+      YAML::Node gn;
+      gn["sigma"] = valueSd(t.sigma, t.sigma_sd, "rad/s");
+      gn["correlation_time"] = valueSd(t.tc, t.tc_sd, "s");
+      gms.push_back(gn);
+    }
+    c["gauss_markov"] = gms;
+    n["continuous"] = c;
+    YAML::Node disc(YAML::NodeType::Sequence);
+    disc.push_back(discreteNode(f, g.tau0));
+    if (filter_rate_hz > 0) disc.push_back(discreteNode(f, 1.0 / filter_rate_hz));
+    n["discrete"] = disc;
+    YAML::Node fl;
+    fl["gauss_markov_terms"] = static_cast<int>(f.gm.size());
+    YAML::Node range(YAML::NodeType::Sequence);
+    range.SetStyle(YAML::EmitterStyle::Flow);
+    range.push_back(num(g.gmwm_vs_data.tau_min));
+    range.push_back(num(g.gmwm_vs_data.tau_max));
+    fl["tau_range_s"] = range;
+    fl["ieee_bias_instability"] = valueSd(a.fit.terms_corrected[kBiasInstability].value,
+                                          a.fit.terms_corrected[kBiasInstability].sigma, "rad/s");
+    fl["worst_avar_ratio_vs_ieee_model"] = num(g.worst_avar_ratio_vs_ieee);
+    fl["worst_avar_ratio_vs_data"] = num(g.gmwm_vs_data.worst_ratio * g.gmwm_vs_data.worst_ratio);
+    n["flicker_approximation"] = fl;
+    YAML::Node cl;
+    cl["gmwm_model"] = agreementNode(g.gmwm_vs_data);
+    cl["ieee_model"] = agreementNode(g.ieee_vs_data);
+    cl["final_model"] = agreementNode(g.final_vs_data);
+    cl["wavelet_variance_points"] = g.wv_points;
+    cl["wavelet_variance_within_ci"] = g.wv_within_ci;
+    cl["wavelet_variance_confidence"] = num(g.wv.confidence);
+    n["closed_loop"] = cl;
+    ax[a.axis] = n;
+  }
+  root["axes"] = ax;
+  return root;
+}
+
+std::string noiseModelYaml(const std::vector<AxisAnalysis>& axes, double filter_rate_hz,
+                           const std::vector<std::string>& sources) {
+  YAML::Emitter e;
+  e.SetDoublePrecision(10);
+  e << YAML::Comment("gyro_allan GMWM bias model per axis; fields in README \"noise_model.yaml\"");
+  e << YAML::Newline;
+  e << noiseModelNode(axes, filter_rate_hz, sources);
+  return std::string(e.c_str()) + "\n";
+}
+
+std::string gmwmSummary(const std::vector<AxisAnalysis>& axes) {
+  std::string out;
+  char buf[600];
+  for (const auto& a : axes) {
+    if (!a.has_gmwm) continue;
+    const GmwmAxis& g = a.gmwm;
+    if (!g.ok) {
+      out += "GMWM " + a.axis + ": " + g.message + "\n";
+      continue;
+    }
+    const GmwmFit& f = g.selection.chosen();
+    std::snprintf(buf, sizeof buf, "GMWM %s: %s, N %.4g deg/sqrt(h)", a.axis.c_str(), f.model.name().c_str(),
+                  f.N * 180 / M_PI * 60);
+    out += buf;
+    for (const auto& t : f.gm) {
+      std::snprintf(buf, sizeof buf, ", GM %.4g deg/h tc %.4g s", t.sigma * 180 / M_PI * 3600, t.tc);
+      out += buf;
+    }
+    if (f.model.random_walk) {
+      std::snprintf(buf, sizeof buf, ", K %.4g deg/h/sqrt(h)", f.K * 180 / M_PI * 3600 * 60);
+      out += buf;
+    }
+    out += "\n";
+    if (g.compared) {
+      std::snprintf(buf, sizeof buf,
+                    "  closed loop (tau %.3g..%.3g s): ADEV inside the data's CI at %d/%d points, worst ratio %.3f, "
+                    "rms_log10 %.4f (IEEE slopes: %d/%d, worst %.3f, rms_log10 %.4f; report's final model: %d/%d, worst %.3f, "
+                    "rms_log10 %.4f)\n",
+                    g.gmwm_vs_data.tau_min, g.gmwm_vs_data.tau_max, g.gmwm_vs_data.within_ci, g.gmwm_vs_data.points,
+                    g.gmwm_vs_data.worst_ratio, g.gmwm_vs_data.rms_log10, g.ieee_vs_data.within_ci,
+                    g.ieee_vs_data.points, g.ieee_vs_data.worst_ratio, g.ieee_vs_data.rms_log10, g.final_vs_data.within_ci,
+                    g.final_vs_data.points, g.final_vs_data.worst_ratio, g.final_vs_data.rms_log10);
+      out += buf;
+    }
+  }
+  return out;
+}
+
+}  // namespace gyro_allan

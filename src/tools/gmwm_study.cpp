@@ -1,0 +1,234 @@
+// gmwm_study: Monte-Carlo study of the GMWM estimator (gmwm.hpp) on simulated records with declared Gauss-Markov
+// terms: parameter recovery (within 10 %, within the reported 2 sigma) and selection of the number of GM terms.
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "gyro_allan/allan.hpp"
+#include "gyro_allan/csv_input.hpp"
+#include "gyro_allan/gmwm.hpp"
+#include "gyro_allan/noise_model.hpp"
+#include "gyro_allan/simulate.hpp"
+
+using namespace gyro_allan;
+
+namespace {
+
+struct Setting {
+  const char* name;
+  double rate_hz, duration_s;
+  double N, K;                       // rad/sqrt(s), rad/s/sqrt(s)
+  std::vector<std::pair<double, double>> gm;  // (sigma rad/s, tc s), sorted by tc
+  bool rw;
+};
+
+// Settings declared here (docs/gmwm.md). S4 is the GMWM package's quick-start example (AR1(phi = 0.99,
+// sigma2 = 0.01) + WN(sigma2 = 1), n = 1e5, unit rate): stationary GM variance 0.01 / (1 - 0.99^2), tc = -1/ln 0.99.
+std::vector<Setting> settings() {
+  const double tc4 = -1.0 / std::log(0.99), s4 = std::sqrt(0.01 / (1 - 0.99 * 0.99));
+  return {
+      {"S1 WN+GM", 100, 3600, 3e-4, 0, {{1e-3, 2.0}}, false},
+      {"S2 WN+2GM", 100, 3600, 3e-4, 0, {{1e-3, 0.1}, {1e-3, 2.0}}, false},
+      {"S3 WN+GM+RW", 100, 3600, 3e-4, 1.5e-4, {{1e-3, 2.0}}, true},
+      {"S5 WN+GM 10s", 100, 3600, 1e-3, 0, {{1e-3, 10.0}}, false},
+      {"S4 pkg AR1+WN", 1, 1e5, 1.0, 0, {{s4, tc4}}, false},
+  };
+}
+
+std::vector<double> simulateSetting(const Setting& s, uint64_t seed) {
+  const int64_t n = static_cast<int64_t>(std::llround(s.rate_hz * s.duration_s));
+  AxisNoise a;
+  a.angle_random_walk = s.N;
+  a.rate_random_walk = s.K;
+  a.gm_sigma = s.gm[0].first;
+  a.gm_tau = s.gm[0].second;
+  std::vector<double> x = simulateAxis(a, s.rate_hz, n, seed, 0);
+  for (size_t i = 1; i < s.gm.size(); ++i) {  // further GM terms: independent streams (axis index as stream)
+    AxisNoise b;
+    b.gm_sigma = s.gm[i].first;
+    b.gm_tau = s.gm[i].second;
+    const std::vector<double> y = simulateAxis(b, s.rate_hz, n, seed, static_cast<int>(i));
+    for (int64_t k = 0; k < n; ++k) x[k] += y[k];
+  }
+  return x;
+}
+
+struct Tally {
+  int runs = 0, fit_ok = 0;
+  std::vector<int> within10_sigma, within10_tc, in2sd_sigma, in2sd_tc;
+  int within10_N = 0, in2sd_N = 0;
+  int select_gm = 0, select_rw = 0, select_both = 0;
+};
+
+// Measured cases: the ADIS16405 static runs (shared data; 100 Hz, 10000 s, deg/s). Per run and gyro axis: GMWM
+// selection, the state-space model's ADEV against the measured oadev (log grid, 10/decade, 68.3 % CI) over
+// tau = 0.01 s .. T/10, and the same for the IEEE 952 joint fit. --verbose prints the ratio at every point.
+int runAdis(const std::string& dir, bool verbose) {
+  std::printf("%-4s %-4s %-12s | %-38s | %-28s\n", "run", "axis", "GMWM model", "GMWM ADEV: in CI / worst ratio / rms_log10",
+              "IEEE slopes: in CI / worst / rms");
+  for (int run = 1; run <= 3; ++run) {
+    const std::string path = dir + "/adis16405_imu" + std::to_string(run) + "_100Hz.csv.gz";
+    CsvOptions co;
+    co.scale = M_PI / 180.0;
+    CsvSeries c;
+    try {
+      c = readCsvFile(path, co);
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "gmwm_study: %s\n", e.what());
+      return 1;
+    }
+    for (int axis = 0; axis < 3; ++axis) {
+      const std::vector<double>& rate = c.columns[static_cast<size_t>(axis)];
+      DeviationOptions o;
+      o.grid.kind = TauGridKind::Log;
+      o.grid.per_decade = 10;
+      const DeviationCurve curve = oadev(rate, 0.01, o);
+      const FitResult fit = fitNoiseModel(curve);
+      GmwmAxis g = gmwmStage(rate, 0.01);
+      if (!g.ok) {
+        std::printf("%-4d %-4c GMWM failed: %s\n", run, "xyz"[axis], g.message.c_str());
+        continue;
+      }
+      gmwmCompare(&g, curve, fit.model_var);
+      std::printf("%-4d %-4c %-12s | %3d/%-3d %6.3f %8.4f                  | %3d/%-3d %6.3f %8.4f\n", run, "xyz"[axis],
+                  g.selection.chosen().model.name().c_str(), g.gmwm_vs_data.within_ci, g.gmwm_vs_data.points,
+                  g.gmwm_vs_data.worst_ratio, g.gmwm_vs_data.rms_log10, g.ieee_vs_data.within_ci,
+                  g.ieee_vs_data.points, g.ieee_vs_data.worst_ratio, g.ieee_vs_data.rms_log10);
+      if (verbose) {
+        const GmwmFit& f = g.selection.chosen();
+        std::printf("     N %.4g", f.N);
+        for (const auto& t : f.gm) std::printf(" GM(%.4g, %.4g s)", t.sigma, t.tc);
+        if (f.model.random_walk) std::printf(" K %.4g", f.K);
+        std::printf("\n     tau, data adev, ci, gmwm/data, ieee/data\n");
+        for (size_t i = 0; i < curve.points.size(); ++i) {
+          const auto& p = curve.points[i];
+          if (p.tau > g.record_s / 10) break;
+          const double mg = std::sqrt(gmwmModelAvar(f, 0.01, p.m));
+          std::printf("     %9.3f %.4g [%.4g, %.4g] %.3f%s %.3f\n", p.tau, p.dev, p.dev_lo, p.dev_hi, mg / p.dev,
+                      (mg >= p.dev_lo && mg <= p.dev_hi) ? "*" : " ", std::sqrt(fit.model_var[i]) / p.dev);
+        }
+      }
+    }
+  }
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc >= 2 && std::string(argv[1]) == "adis") {
+    const char* env = std::getenv("GYRO_ALLAN_SHARED_DATA");
+    std::string dir = env ? std::string(env) + "/adis16405" : "../shared/data/adis16405";
+    bool verbose = false;
+    for (int i = 2; i < argc; ++i) {
+      if (std::string(argv[i]) == "--data" && i + 1 < argc) dir = argv[++i];
+      else if (std::string(argv[i]) == "--verbose") verbose = true;
+    }
+    return runAdis(dir, verbose);
+  }
+  int seeds = 20;
+  uint64_t first = 1;
+  double penalty = GmwmOptions().penalty_per_parameter;
+  bool select = true, verbose = false;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto next = [&]() -> const char* {
+      if (i + 1 >= argc) {
+        std::fprintf(stderr, "%s needs a value\n", a.c_str());
+        std::exit(2);
+      }
+      return argv[++i];
+    };
+    if (a == "--seeds") seeds = std::atoi(next());
+    else if (a == "--first-seed") first = std::strtoull(next(), nullptr, 10);
+    else if (a == "--penalty") penalty = std::atof(next());
+    else if (a == "--no-select") select = false;
+    else if (a == "--verbose") verbose = true;
+    else if (a == "--tuning") first = 1;
+    else if (a == "--validation") first = 1001;
+    else {
+      std::fprintf(stderr,
+                   "usage: gmwm_study adis [--data DIR] [--verbose]   (measured cases: ADIS16405 runs)\n"
+                   "       gmwm_study [--seeds N (20)] [--tuning (seeds 1..N, default) | --validation (1001..)]\n"
+                   "                  [--first-seed S] [--penalty P] [--no-select] [--verbose]\n"
+                   "Fits the true model to each simulated record (recovery) and selects among WN+RW, WN+kGM(+RW),\n"
+                   "k <= 3 (selection). Prints one table row per setting.\n");
+      return 2;
+    }
+  }
+  if (seeds < 1) return 2;
+  std::printf("GMWM study: seeds %llu..%llu, selection penalty %.2f per parameter\n",
+              static_cast<unsigned long long>(first), static_cast<unsigned long long>(first + seeds - 1), penalty);
+  std::printf("%-15s %4s | %-26s | %-26s | %-9s | %s\n", "setting", "runs", "sigma: in10% / in2sd (per GM)",
+              "tc: in10% / in2sd (per GM)", "N in10%", "selected: #GM / RW / both");
+  for (const Setting& s : settings()) {
+    Tally t;
+    const size_t p = s.gm.size();
+    t.within10_sigma.assign(p, 0);
+    t.within10_tc.assign(p, 0);
+    t.in2sd_sigma.assign(p, 0);
+    t.in2sd_tc.assign(p, 0);
+    GmwmModel truth;
+    truth.gauss_markov = static_cast<int>(p);
+    truth.random_walk = s.rw;
+    GmwmOptions o;
+    o.penalty_per_parameter = penalty;
+    for (int k = 0; k < seeds; ++k) {
+      const uint64_t seed = first + static_cast<uint64_t>(k);
+      const std::vector<double> x = simulateSetting(s, seed);
+      const WaveletVariance wv = haarWaveletVariance(x, 1.0 / s.rate_hz);
+      ++t.runs;
+      const GmwmFit f = fitGmwm(wv, truth, o);
+      if (f.ok) {
+        ++t.fit_ok;
+        for (size_t i = 0; i < p; ++i) {
+          const double ts = s.gm[i].first, tt = s.gm[i].second;
+          if (std::fabs(f.gm[i].sigma / ts - 1) <= 0.1) ++t.within10_sigma[i];
+          if (std::fabs(f.gm[i].tc / tt - 1) <= 0.1) ++t.within10_tc[i];
+          if (std::fabs(f.gm[i].sigma - ts) <= 2 * f.gm[i].sigma_sd) ++t.in2sd_sigma[i];
+          if (std::fabs(f.gm[i].tc - tt) <= 2 * f.gm[i].tc_sd) ++t.in2sd_tc[i];
+        }
+        if (std::fabs(f.N / s.N - 1) <= 0.1) ++t.within10_N;
+        if (verbose) {
+          std::printf("  seed %llu chi2 %.1f/%d N %.4g+-%.2g", static_cast<unsigned long long>(seed), f.chi2, f.dof,
+                      f.N, f.N_sd);
+          for (const auto& g : f.gm) std::printf(" GM(%.4g+-%.2g, %.4g+-%.2g s)", g.sigma, g.sigma_sd, g.tc, g.tc_sd);
+          if (s.rw) std::printf(" K %.3g+-%.2g", f.K, f.K_sd);
+          std::printf("\n");
+        }
+      }
+      if (select) {
+        const GmwmSelection sel = selectGmwm(wv, o);
+        if (sel.best >= 0) {
+          const GmwmModel& m = sel.chosen().model;
+          const bool g = m.gauss_markov == truth.gauss_markov, r = m.random_walk == truth.random_walk;
+          t.select_gm += g;
+          t.select_rw += r;
+          t.select_both += g && r;
+          if (verbose) {
+            std::printf("  seed %llu:", static_cast<unsigned long long>(seed));
+            for (const auto& c : sel.fits)
+              std::printf(" %s %.1f%s", c.model.name().c_str(), c.criterion, c.identified ? "" : "(u)");
+            std::printf(" -> %s\n", m.name().c_str());
+          }
+        }
+      }
+    }
+    std::string sg, tg;
+    char buf[64];
+    for (size_t i = 0; i < p; ++i) {
+      std::snprintf(buf, sizeof buf, "%s%d/%d", i ? ", " : "", t.within10_sigma[i], t.in2sd_sigma[i]);
+      sg += buf;
+      std::snprintf(buf, sizeof buf, "%s%d/%d", i ? ", " : "", t.within10_tc[i], t.in2sd_tc[i]);
+      tg += buf;
+    }
+    std::printf("%-15s %4d | %-26s | %-26s | %-9d | ", s.name, t.runs, sg.c_str(), tg.c_str(), t.within10_N);
+    if (select) std::printf("%d / %d / %d\n", t.select_gm, t.select_rw, t.select_both);
+    else std::printf("-\n");
+    std::fflush(stdout);
+  }
+  return 0;
+}
