@@ -10,7 +10,7 @@ PKGS=(
   librostest-dev python3-rostest python3-roslaunch python3-rosmaster python3-rosbag rosout
   python3-diagnostic-msgs
   libdynamic-reconfigure-config-init-mutex-dev python3-dynamic-reconfigure ros-std-srvs libstd-srvs-dev
-  python3-rostopic python3-rosservice
+  python3-rostopic python3-rosservice python3-std-srvs
   libgtest-dev libbenchmark-dev libeigen3-dev libyaml-cpp-dev libboost-dev zlib1g-dev
   python3-numpy python3-matplotlib python3-yaml
   libopencv-imgproc-dev
