@@ -186,128 +186,133 @@ bool buildProblem(const DeviationCurve& curve, const FitOptions& options, const 
   return true;
 }
 
-}  // namespace
-
-namespace detail {
-
-bool glsApplies(const DeviationCurve& curve) {
-  if (curve.name != "oadev" || !(curve.tau0 > 0) || curve.points.size() < 2) return false;
-  for (const auto& p : curve.points)
-    if (p.m < 1 || p.n_terms < 1) return false;
-  return true;
-}
-
-FitResult fitNoiseModelGls(const DeviationCurve& curve, const FitOptions& options, const std::vector<ExtraTerm>& extra) {
+// The GLS fit of one curve, stage by stage (fitNoiseModelGls runs them in order). The members are the state the
+// stages share: the problem, the coefficients as they evolve, and the result being filled.
+struct GlsFit {
+  const DeviationCurve& curve;
+  const FitOptions& options;
+  const std::vector<ExtraTerm>& extra;
   FitResult r;
-  const size_t np = curve.points.size();
-  r.gls = true;
-  r.uncertainty =
-      "GLS: inverse information with the analytic covariance of the AVAR estimates at the fitted model; intervals "
-      "and values conditional on the term selection (selective inference)";
-  r.tau.resize(np);
-  for (size_t i = 0; i < np; ++i) r.tau[i] = curve.points[i].tau;
-  r.model_var.assign(np, 0.0);
-  r.used.assign(np, false);
-  r.gls_used.assign(np, false);
-  r.extra.assign(extra.size(), Coefficient{});
-  r.extra_c.assign(extra.size(), 0.0);
   GlsProblem P;
-  if (!buildProblem(curve, options, extra, &r, &P) || P.term.empty()) {
-    r.message = "too few Allan-variance points to fit (" + std::to_string(P.idx.size()) + ")";
-    return r;
-  }
-  const int ncol = static_cast<int>(P.term.size());
-  std::vector<int> all(static_cast<size_t>(ncol)), extras;
-  for (int k = 0; k < ncol; ++k) {
-    all[static_cast<size_t>(k)] = k;
-    if (P.term[static_cast<size_t>(k)] >= kNumTerms) extras.push_back(k);
+  int ncol = 0;
+  std::vector<int> all, extras, ieee_cols;  // column sets: every column, the extra terms', the IEEE terms'
+  Eigen::VectorXd c;                         // coefficient weights (AVAR units), per column
+  Eigen::VectorXd c_full;                    // ... of the full model (before term selection)
+  Eigen::MatrixXd cov_full;                  // the full model's covariance of the estimates
+  std::vector<int> pos;                      // the selected columns
+  struct TermInference {
+    bool corrected_out = false;
+    double sd0 = 0;
+    SelectionEvent event;
+    SelectiveEstimate est;
+  };
+  std::vector<TermInference> inf;
+
+  GlsFit(const DeviationCurve& curve_, const FitOptions& options_, const std::vector<ExtraTerm>& extra_)
+      : curve(curve_), options(options_), extra(extra_) {}
+
+  double penalty(int col) const {
+    return P.term[static_cast<size_t>(col)] == kRateRamp ? options.ramp_penalty : options.term_penalty;
   }
 
-  // Start: each estimate's variance from its EDF (relative least squares), then iterate the model's covariance.
-  Eigen::VectorXd c;
-  {
-    Whitened w = whiten(P, P.fallback_var.asDiagonal());
-    if (!w.ok) {
-      r.message = "covariance of the Allan-variance points is not positive definite";
-      return r;
-    }
-    solveNnls(w, all, &c);
+  // The result's fixed fields and per-point arrays.
+  void initResult() {
+    const size_t np = curve.points.size();
+    r.gls = true;
+    r.uncertainty =
+        "GLS: inverse information with the analytic covariance of the AVAR estimates at the fitted model; intervals "
+        "and values conditional on the term selection (selective inference)";
+    r.tau.resize(np);
+    for (size_t i = 0; i < np; ++i) r.tau[i] = curve.points[i].tau;
+    r.model_var.assign(np, 0.0);
+    r.used.assign(np, false);
+    r.gls_used.assign(np, false);
+    r.extra.assign(extra.size(), Coefficient{});
+    r.extra_c.assign(extra.size(), 0.0);
   }
-  auto iterate = [&](const std::vector<int>& cols, int rounds) {
-    for (int it = 0; it < rounds; ++it) {
+
+  // Column sets of the problem.
+  void columns() {
+    ncol = static_cast<int>(P.term.size());
+    all.resize(static_cast<size_t>(ncol));
+    for (int k = 0; k < ncol; ++k) {
+      all[static_cast<size_t>(k)] = k;
+      if (P.term[static_cast<size_t>(k)] >= kNumTerms) extras.push_back(k);
+      else ieee_cols.push_back(k);
+    }
+  }
+
+  // The full model: each estimate's variance from its EDF (relative least squares), then the model's covariance,
+  // iterated. False when the EDF-weighted start is not positive definite.
+  bool fitFullModel() {
+    {
+      Whitened w = whiten(P, P.fallback_var.asDiagonal());
+      if (!w.ok) return false;
+      solveNnls(w, all, &c);
+    }
+    for (int it = 0; it < 4; ++it) {
       const Whitened w = whiten(P, P.covariance(c));
       if (!w.ok) break;
       Eigen::VectorXd next;
-      solveNnls(w, cols, &next);
+      solveNnls(w, all, &next);
       c = next;
     }
-  };
-  iterate(all, 4);
+    // The covariance stays the full model's from here on: a term dropped for want of evidence may still be there
+    // below detection, and the scatter it causes must stay in the weights (with the reduced model's covariance, a
+    // record with weak B and K gave chi2/dof ~ 20 for its N-only answer).
+    cov_full = P.covariance(c);
+    c_full = c;
+    return true;
+  }
 
   // Term selection at the full model's covariance: every subset of the IEEE terms (extra terms always in), scored
   // by chi-squared plus a penalty per selected term.
-  std::vector<int> ieee_cols;
-  for (int k = 0; k < ncol; ++k)
-    if (P.term[static_cast<size_t>(k)] < kNumTerms) ieee_cols.push_back(k);
-  auto penalty = [&](int col) {
-    return P.term[static_cast<size_t>(col)] == kRateRamp ? options.ramp_penalty : options.term_penalty;
-  };
-  // The covariance stays the full model's from here on: a term dropped for want of evidence may still be there
-  // below detection, and the scatter it causes must stay in the weights (with the reduced model's covariance, a
-  // record with weak B and K gave chi2/dof ~ 20 for its N-only answer).
-  const Eigen::MatrixXd cov_full = P.covariance(c);
-  const Eigen::VectorXd c_full = c;
-  {
+  void selectTerms() {
     const Whitened w = whiten(P, cov_full);
-    if (w.ok) {
-      double best_score = std::numeric_limits<double>::infinity();
-      Eigen::VectorXd best_c = c;
-      const int ne = static_cast<int>(ieee_cols.size());
-      for (int mask = 0; mask < (1 << ne); ++mask) {
-        std::vector<int> cols = extras;
-        for (int b = 0; b < ne; ++b)
-          if (mask & (1 << b)) cols.push_back(ieee_cols[static_cast<size_t>(b)]);
-        if (cols.empty()) continue;
-        Eigen::VectorXd cs;
-        double score = solveNnls(w, cols, &cs);
-        for (int col : ieee_cols)
-          if (cs[col] > 0) score += penalty(col);
-        if (score < best_score - 1e-9) {
-          best_score = score;
-          best_c = cs;
-        }
+    if (!w.ok) return;
+    double best_score = std::numeric_limits<double>::infinity();
+    Eigen::VectorXd best_c = c;
+    const int ne = static_cast<int>(ieee_cols.size());
+    for (int mask = 0; mask < (1 << ne); ++mask) {
+      std::vector<int> cols = extras;
+      for (int b = 0; b < ne; ++b)
+        if (mask & (1 << b)) cols.push_back(ieee_cols[static_cast<size_t>(b)]);
+      if (cols.empty()) continue;
+      Eigen::VectorXd cs;
+      double score = solveNnls(w, cols, &cs);
+      for (int col : ieee_cols)
+        if (cs[col] > 0) score += penalty(col);
+      if (score < best_score - 1e-9) {
+        best_score = score;
+        best_c = cs;
       }
-      c = best_c;
     }
+    c = best_c;
   }
 
-  // Final statistics at the same covariance.
-  const Whitened w = whiten(P, cov_full);
-  if (!w.ok) {
-    r.message = "covariance of the Allan-variance points is not positive definite";
-    return r;
-  }
-  const int n = static_cast<int>(P.idx.size());
-  std::vector<int> pos;
-  for (int k = 0; k < ncol; ++k)
-    if (c[k] > 0) pos.push_back(k);
-  const double chi2 = (w.b - w.A * c).squaredNorm();
-  r.dof = std::max(1, n - static_cast<int>(pos.size()));
-  r.chi2 = chi2;
-  r.chi2_dof = chi2 / r.dof;
-  r.chi2_p = chi2UpperTail(chi2, r.dof);
-  r.uncertainty_inflation = (r.chi2_p < kMisfitP && r.chi2_dof > 1) ? r.chi2_dof : 1.0;
-  // Evidence: chi-squared change when each IEEE term leaves or joins the final set (same covariance).
-  for (int col : ieee_cols) {
-    const int t = P.term[static_cast<size_t>(col)];
-    std::vector<int> cols;
-    const bool in = c[col] > 0;
-    for (int k : pos)
-      if (k != col) cols.push_back(k);
-    if (!in) cols.push_back(col);
-    Eigen::VectorXd tmp;
-    const double other = solveNnls(w, cols, &tmp);
-    r.evidence[static_cast<size_t>(t)] = in ? other - chi2 : chi2 - other;
+  // Final statistics at the same covariance, and the evidence: the chi-squared change when each IEEE term leaves or
+  // joins the final set.
+  void statistics(const Whitened& w) {
+    const int n = static_cast<int>(P.idx.size());
+    for (int k = 0; k < ncol; ++k)
+      if (c[k] > 0) pos.push_back(k);
+    const double chi2 = (w.b - w.A * c).squaredNorm();
+    r.dof = std::max(1, n - static_cast<int>(pos.size()));
+    r.chi2 = chi2;
+    r.chi2_dof = chi2 / r.dof;
+    r.chi2_p = chi2UpperTail(chi2, r.dof);
+    r.uncertainty_inflation = (r.chi2_p < kMisfitP && r.chi2_dof > 1) ? r.chi2_dof : 1.0;
+    for (int col : ieee_cols) {
+      const int t = P.term[static_cast<size_t>(col)];
+      std::vector<int> cols;
+      const bool in = c[col] > 0;
+      for (int k : pos)
+        if (k != col) cols.push_back(k);
+      if (!in) cols.push_back(col);
+      Eigen::VectorXd tmp;
+      const double other = solveNnls(w, cols, &tmp);
+      r.evidence[static_cast<size_t>(t)] = in ? other - chi2 : chi2 - other;
+    }
   }
 
   // Intervals and values by selective inference (selective.hpp). Each term's estimate x (its least-squares value
@@ -321,7 +326,9 @@ FitResult fitNoiseModelGls(const DeviationCurve& curve, const FitOptions& option
   // The columns whose uncertainty counts: for a selected term, the selected terms and those the full model had (a
   // term below the selection threshold still trades with its neighbours); for a dropped term, the selected terms and
   // itself (below).
-  auto sdAt = [&](const std::vector<int>& cols, size_t pos_in_cols, int col, double x) {
+
+  // sd of the estimate of column `col` (at position pos_in_cols of cols) when its true weight is x.
+  double sdAt(const std::vector<int>& cols, size_t pos_in_cols, int col, double x) const {
     Eigen::VectorXd cm = c_full;
     cm[col] = std::max(0.0, x);
     const Whitened wx = whiten(P, P.covariance(cm));
@@ -331,15 +338,10 @@ FitResult fitNoiseModelGls(const DeviationCurve& curve, const FitOptions& option
     solveFree(wx, cols, &est, &cov);
     const int k = static_cast<int>(pos_in_cols);
     return std::sqrt(std::max(0.0, cov(k, k) * r.uncertainty_inflation));
-  };
-  struct TermInference {
-    bool corrected_out = false;
-    double sd0 = 0;
-    SelectionEvent event;
-    SelectiveEstimate est;
-  };
-  std::vector<TermInference> inf(static_cast<size_t>(ncol));
-  auto infer = [&](int col, const std::vector<int>& cols, size_t k, double x, double sd0) {
+  }
+
+  // One column's selection event, variance model and selective estimate.
+  void infer(int col, const std::vector<int>& cols, size_t k, double x, double sd0) {
     TermInference ti;
     ti.sd0 = sd0;
     const int t = P.term[static_cast<size_t>(col)];
@@ -376,8 +378,11 @@ FitResult fitNoiseModelGls(const DeviationCurve& curve, const FitOptions& option
       ti.est = selectiveEstimate(x, vm, SelectionEvent{false, std::numeric_limits<double>::infinity()});
     }
     inf[static_cast<size_t>(col)] = ti;
-  };
-  {
+  }
+
+  // Every column's inference: the selected ones from one solve, each dropped one from its own.
+  void inferAll(const Whitened& w) {
+    inf.assign(static_cast<size_t>(ncol), TermInference{});
     std::vector<int> ucols = pos;
     for (int col : ieee_cols)
       if (!(c[col] > 0) && c_full[col] > 0) ucols.push_back(col);
@@ -405,60 +410,100 @@ FitResult fitNoiseModelGls(const DeviationCurve& curve, const FitOptions& option
             std::sqrt(std::max(0.0, cov(static_cast<int>(k), static_cast<int>(k)) * r.uncertainty_inflation)));
     }
   }
+
   // `terms`: the least-squares values behind the model curve (the model check works with these); `terms_corrected`:
   // the answer, with the selection-corrected values and the barely selected terms dropped. Both carry the same
   // intervals.
-  for (int col = 0; col < ncol; ++col) {
-    const TermInference& ti = inf[static_cast<size_t>(col)];
-    Coefficient co;
-    co.supported = c[col] > 0;
-    co.value = co.supported ? std::sqrt(c[col]) : 0.0;
-    co.hi68 = std::sqrt(ti.est.hi68);
-    co.hi95 = std::sqrt(ti.est.hi95);
-    co.lo68 = std::sqrt(ti.est.lo68);  // a dropped term's unified interval may exclude 0 (selective.hpp)
-    co.lo95 = std::sqrt(ti.est.lo95);
-    if (co.supported) {
-      co.sigma = ti.sd0 / (2.0 * co.value);  // delta method at the least-squares value (the model check's gates)
-    } else {
-      co.sigma = co.hi68;  // a 1-sigma upper bound
-    }
-    const int t = P.term[static_cast<size_t>(col)];
-    if (t < kNumTerms) {
-      r.terms[static_cast<size_t>(t)] = co;
-      Coefficient& cc = r.terms_corrected[static_cast<size_t>(t)];
-      cc = co;
-      if (co.supported && ti.corrected_out) {
-        r.dropped_by_correction[static_cast<size_t>(t)] = true;
-        cc.supported = false;
-        cc.value = 0.0;
-        cc.sigma = cc.hi68;
-      } else if (co.supported) {
-        cc.value = std::sqrt(ti.est.median);
+  void coefficients() {
+    for (int col = 0; col < ncol; ++col) {
+      const TermInference& ti = inf[static_cast<size_t>(col)];
+      Coefficient co;
+      co.supported = c[col] > 0;
+      co.value = co.supported ? std::sqrt(c[col]) : 0.0;
+      co.hi68 = std::sqrt(ti.est.hi68);
+      co.hi95 = std::sqrt(ti.est.hi95);
+      co.lo68 = std::sqrt(ti.est.lo68);  // a dropped term's unified interval may exclude 0 (selective.hpp)
+      co.lo95 = std::sqrt(ti.est.lo95);
+      if (co.supported) {
+        co.sigma = ti.sd0 / (2.0 * co.value);  // delta method at the least-squares value (the model check's gates)
+      } else {
+        co.sigma = co.hi68;  // a 1-sigma upper bound
       }
-    } else {
-      r.extra[static_cast<size_t>(t - kNumTerms)] = co;
-      if (co.supported) r.extra_c[static_cast<size_t>(t - kNumTerms)] = c[col];
+      const int t = P.term[static_cast<size_t>(col)];
+      if (t < kNumTerms) {
+        r.terms[static_cast<size_t>(t)] = co;
+        Coefficient& cc = r.terms_corrected[static_cast<size_t>(t)];
+        cc = co;
+        if (co.supported && ti.corrected_out) {
+          r.dropped_by_correction[static_cast<size_t>(t)] = true;
+          cc.supported = false;
+          cc.value = 0.0;
+          cc.sigma = cc.hi68;
+        } else if (co.supported) {
+          cc.value = std::sqrt(ti.est.median);
+        }
+      } else {
+        r.extra[static_cast<size_t>(t - kNumTerms)] = co;
+        if (co.supported) r.extra_c[static_cast<size_t>(t - kNumTerms)] = c[col];
+      }
     }
   }
 
-
-  for (size_t i = 0; i < np; ++i) {
-    double v = 0;
-    for (int k = 0; k < ncol; ++k) {
-      if (!(c[k] > 0)) continue;
-      const int t = P.term[static_cast<size_t>(k)];
-      v += c[k] * (t < kNumTerms ? noiseTermBasis(t, curve.points[i].tau) : extra[static_cast<size_t>(t - kNumTerms)].basis(curve.points[i].tau));
+  // The model curve at every point and its fit error.
+  void modelCurve() {
+    for (size_t i = 0; i < curve.points.size(); ++i) {
+      double v = 0;
+      for (int k = 0; k < ncol; ++k) {
+        if (!(c[k] > 0)) continue;
+        const int t = P.term[static_cast<size_t>(k)];
+        v += c[k] * (t < kNumTerms ? noiseTermBasis(t, curve.points[i].tau) : extra[static_cast<size_t>(t - kNumTerms)].basis(curve.points[i].tau));
+      }
+      r.model_var[i] = v;
     }
-    r.model_var[i] = v;
+    DeviationCurve with_edf = curve;  // rms_log10 counts points by EDF (the non-overlapping count where none is given)
+    for (auto& p : with_edf.points)
+      if (!(p.edf > 0) && p.m > 0) p.edf = static_cast<double>(curve.n_phase) / static_cast<double>(p.m) - 1.0;
+    const FitError fe = fitError(with_edf, r.model_var, r.used, static_cast<int>(pos.size()), options.rms_min_edf);
+    r.rms_log10 = fe.rms_log10;
+    r.n_rms = fe.n_rms;
   }
-  DeviationCurve with_edf = curve;  // rms_log10 counts points by EDF (the non-overlapping count where none is given)
-  for (auto& p : with_edf.points)
-    if (!(p.edf > 0) && p.m > 0) p.edf = static_cast<double>(curve.n_phase) / static_cast<double>(p.m) - 1.0;
-  const FitError fe = fitError(with_edf, r.model_var, r.used, static_cast<int>(pos.size()), options.rms_min_edf);
-  r.rms_log10 = fe.rms_log10;
-  r.n_rms = fe.n_rms;
-  r.ok = true;
-  return r;
+};
+
+}  // namespace
+
+namespace detail {
+
+bool glsApplies(const DeviationCurve& curve) {
+  if (curve.name != "oadev" || !(curve.tau0 > 0) || curve.points.size() < 2) return false;
+  for (const auto& p : curve.points)
+    if (p.m < 1 || p.n_terms < 1) return false;
+  return true;
+}
+
+FitResult fitNoiseModelGls(const DeviationCurve& curve, const FitOptions& options, const std::vector<ExtraTerm>& extra) {
+  GlsFit g(curve, options, extra);
+  g.initResult();
+  if (!buildProblem(curve, options, extra, &g.r, &g.P) || g.P.term.empty()) {
+    g.r.message = "too few Allan-variance points to fit (" + std::to_string(g.P.idx.size()) + ")";
+    return g.r;
+  }
+  g.columns();
+  if (!g.fitFullModel()) {
+    g.r.message = "covariance of the Allan-variance points is not positive definite";
+    return g.r;
+  }
+  g.selectTerms();
+  const Whitened w = whiten(g.P, g.cov_full);
+  if (!w.ok) {
+    g.r.message = "covariance of the Allan-variance points is not positive definite";
+    return g.r;
+  }
+  g.statistics(w);
+  g.inferAll(w);
+  g.coefficients();
+  g.modelCurve();
+  g.r.ok = true;
+  return g.r;
 }
 
 }  // namespace detail
