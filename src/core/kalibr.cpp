@@ -108,7 +108,7 @@ void line(std::ostringstream& o, const char* key, const KalibrValue& v, const ch
   o << key << ": " << buf << "  # " << unit << ", " << source;
   if (v.axis == "rms") o << ", quadratic mean over axes";
   else o << ", axis " << v.axis << " (largest)";
-  if (v.bound) o << "; NOT SUPPORTED by the data: this is the 1-sigma upper bound, the true value may be smaller";
+  if (v.bound) o << "; NOT SUPPORTED by the data: this is the upper end of its 68 % interval, the true value may be smaller";
   if (!bad.empty()) o << "; BAD FIT on axis " << bad << ": not a measurement, see the quality lines above";
   o << "\n";
 }

@@ -468,7 +468,7 @@ std::string summaryTable(const std::vector<AxisAnalysis>& axes) {
     o << buf << "\n";
   }
   o << "(value +- 1 sigma from the GLS covariance of the Allan-variance estimates; 0 (<b): not supported by the data, "
-       "b = 1-sigma upper bound; 68 %/95 % intervals in report.yaml)\n";
+       "b = upper end of its 68 % interval; 68 %/95 % intervals in report.yaml)\n";
   o << qualityLines(axes, true);
   // Spikes: how many were removed and what N the plain joint fit gives with them left in (x: ratio to the joint fit
   // without them).

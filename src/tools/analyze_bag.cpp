@@ -102,7 +102,7 @@ Output
   --format yaml|json     report format: DIR/report.yaml or DIR/report.json (default yaml)
                          Always written: DIR/allan.csv (gyro axes x,y,z; accelerometer axes accel_x..z) and
                          DIR/imu.yaml (Kalibr IMU noise parameters: N and K of gyro and accelerometer, update_rate,
-                         rostopic; a term the data does not support is written as its 1-sigma upper bound)
+                         rostopic; a term the data does not support is written as the upper end of its 68 % interval)
                          Uncertainties: generalized least squares with the analytic covariance of the overlapping
                          Allan-variance estimates across tau (not a bootstrap); intervals and values conditional on
                          the term selection (selective inference); report.yaml gives each coefficient's 68 % and
