@@ -78,7 +78,7 @@ TEST(NodeletBadParams, ComesUpWithDocumentedReplacements) {
   while (ros::WallTime::now() < end && !(p.value("samples received (total)") >= n)) ros::WallDuration(0.1).sleep();
   EXPECT_EQ(p.value("samples received (total)"), n);
   EXPECT_EQ(p.value("window (s)"), 3600.0);     // window_s -5 -> default
-  EXPECT_EQ(p.value("hop (s)"), 10.0);          // hop_s > window -> min(10, window)
+  EXPECT_EQ(p.value("hop (s)"), 300.0);         // hop_s > window -> min(300, window)
   EXPECT_EQ(p.value("expected rate (Hz, 0 = from the stamps)"), 0.0);  // expected_rate_hz < 0 -> from the stamps
   EXPECT_EQ(p.value("gap factor"), 1.5);        // gap_factor 0.5 -> 1.5
   // Every problem named: invalid values, retired names, a misspelt name, a mistyped value.

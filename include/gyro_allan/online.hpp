@@ -19,7 +19,7 @@ struct OnlineOptions {
   /// the at-rest check) as analyze_bag does; false: they are not stored.
   PipelineOptions pipeline;
   double window_s = 3600;     ///< window length in input-stamp time [s] (> 0)
-  double hop_s = 10;          ///< analysis period in input-stamp time [s] (0 < hop_s <= window_s)
+  double hop_s = 300;         ///< analysis period in input-stamp time [s] (0 < hop_s <= window_s)
   int64_t min_samples = 1000; ///< samples in the window before the first analysis (>= 3)
   /// Throws std::invalid_argument naming the first bad value.
   void validate() const;

@@ -173,8 +173,8 @@ AnalyzerParams loadAnalyzerParams(const ros::NodeHandle& pnh, std::vector<std::s
   if (!(o.window_s > 0) || o.window_s > 1e6) invalid("window_s", "must be in (0, 1e6] s", "3600"), o.window_s = 3600;
   r.get("hop_s", &o.hop_s);
   if (!(o.hop_s > 0) || o.hop_s > o.window_s) {
-    invalid("hop_s", "must be in (0, window_s]", "min(10, window_s)");
-    o.hop_s = std::min(10.0, o.window_s);
+    invalid("hop_s", "must be in (0, window_s]", "min(300, window_s)");
+    o.hop_s = std::min(300.0, o.window_s);
   }
   int min_fit = static_cast<int>(o.min_samples);
   r.get("min_fit_samples", &min_fit);
