@@ -398,26 +398,9 @@ double nearestNu(const WaveletVariance& wv, double tau_samples) {
   return wv.nu2[best];
 }
 
-}  // namespace
-
-GmwmFit fitGmwm(const WaveletVariance& wv, const GmwmModel& model, const GmwmOptions& options) {
-  GmwmFit fit;
-  fit.model = model;
-  const Layout L(model);
+/// The fitting problem of `model` on `wv`: data, log-parameter bounds and first-pass (diagonal) weights.
+Problem makeProblem(const WaveletVariance& wv, const Layout& L) {
   const int J = static_cast<int>(wv.level.size());
-  if (L.p == 0) {
-    fit.message = "model has no term";
-    return fit;
-  }
-  if (J <= L.p) {
-    fit.message = "too few wavelet levels (" + std::to_string(J) + ") for " + std::to_string(L.p) + " parameters";
-    return fit;
-  }
-  for (double v : wv.nu2)
-    if (!(v > 0) || !std::isfinite(v)) {
-      fit.message = "a wavelet variance is zero or not finite (constant or broken data)";
-      return fit;
-    }
   Problem P;
   P.wv = &wv;
   P.L = L;
@@ -437,8 +420,11 @@ GmwmFit fitGmwm(const WaveletVariance& wv, const GmwmModel& model, const GmwmOpt
     for (int j = 0; j < J; ++j) d(j, j) = std::sqrt(wv.eta[j] / 2.0) / wv.nu2[j];
     P.Winv_chol_inv = d;
   }
-  // Robust starting values: WN from level 1, RW from the last level, GMs placed over a grid of correlation times with
-  // their variance from the WV near their peak scale (~4 tc); every combination is refined, the best kept.
+  return P;
+}
+
+/// The GM correlation-time combinations (in samples) the starting values are placed at, one vector per start.
+std::vector<std::vector<double>> startCombos(const WaveletVariance& wv, const Layout& L) {
   std::vector<double> tcs;
   for (int j = 1; j <= wv.level.back() - 1; j += 2) tcs.push_back(std::ldexp(1.0, j) / 2.0);
   if (tcs.empty()) tcs.push_back(1.0);
@@ -466,9 +452,16 @@ GmwmFit fitGmwm(const WaveletVariance& wv, const GmwmModel& model, const GmwmOpt
       combos.push_back(c);
     }
   }
+  return combos;
+}
+
+/// The best estimate from many starting values (one per combination), refined under the first-pass weights.
+Eigen::VectorXd bestStart(const Problem& P, const WaveletVariance& wv, const GmwmModel& model,
+                          const std::vector<std::vector<double>>& combos, int* iters) {
+  const Layout& L = P.L;
+  const double tau_max = std::ldexp(1.0, wv.level.back());
   double best_cost = std::numeric_limits<double>::infinity();
   Eigen::VectorXd best;
-  int iters = 0;
   std::vector<std::pair<double, Eigen::VectorXd>> starts;
   for (const auto& c : combos) {
     Eigen::VectorXd th(L.p);
@@ -483,18 +476,128 @@ GmwmFit fitGmwm(const WaveletVariance& wv, const GmwmModel& model, const GmwmOpt
       th[L.gm0 + 2 * i] = std::log(nearestNu(wv, 4.0 * tc) / peak * share);
       th[L.gm0 + 2 * i + 1] = std::log(tc);
     }
-    starts.push_back({levenbergMarquardt(P, &th, combos.size() > 3 ? 25 : 200, &iters), th});
+    starts.push_back({levenbergMarquardt(P, &th, combos.size() > 3 ? 25 : 200, iters), th});
   }
   // Many starts: each ran a short refinement; the best three are refined fully.
   std::sort(starts.begin(), starts.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
   for (size_t i = 0; i < std::min<size_t>(3, starts.size()); ++i) {
     Eigen::VectorXd th = starts[i].second;
-    const double cost = combos.size() > 3 ? levenbergMarquardt(P, &th, 200, &iters) : starts[i].first;
+    const double cost = combos.size() > 3 ? levenbergMarquardt(P, &th, 200, iters) : starts[i].first;
     if (cost < best_cost) {
       best_cost = cost;
       best = th;
     }
   }
+  return best;
+}
+
+/// `best` with its GM terms sorted by correlation time.
+Eigen::VectorXd sortGaussMarkov(const Layout& L, const Eigen::VectorXd& best) {
+  Eigen::VectorXd theta = best;
+  std::vector<std::pair<double, double>> g;
+  for (int i = 0; i < L.n_gm; ++i) g.push_back({best[L.gm0 + 2 * i + 1], best[L.gm0 + 2 * i]});
+  std::sort(g.begin(), g.end());
+  for (int i = 0; i < L.n_gm; ++i) {
+    theta[L.gm0 + 2 * i] = g[static_cast<size_t>(i)].second;
+    theta[L.gm0 + 2 * i + 1] = g[static_cast<size_t>(i)].first;
+  }
+  return theta;
+}
+
+/// Covariance of the log parameters at `theta` under the problem's current weights.
+Eigen::MatrixXd parameterCovariance(const Problem& P, const Eigen::VectorXd& theta) {
+  const int p = P.L.p;
+  const Eigen::MatrixXd Jw = P.Winv_chol_inv * jacobian(P, theta);
+  const Eigen::MatrixXd info = Jw.transpose() * Jw;
+  // Pseudo-inverse in correlation form: a direction the data do not inform (a term at its bound) gets an
+  // effectively infinite variance instead of whatever a near-singular solve returns.
+  Eigen::VectorXd d(p);
+  for (int k = 0; k < p; ++k) d[k] = info(k, k) > 0 ? 1.0 / std::sqrt(info(k, k)) : 1e150;
+  const Eigen::MatrixXd Cn = d.asDiagonal() * info * d.asDiagonal();
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(Cn);
+  Eigen::VectorXd inv = es.eigenvalues();
+  for (int k = 0; k < p; ++k) inv[k] = inv[k] > 1e-10 ? 1.0 / inv[k] : 1e20;
+  return d.asDiagonal() * (es.eigenvectors() * inv.asDiagonal() * es.eigenvectors().transpose()) * d.asDiagonal();
+}
+
+/// Standard deviation of log parameter k of `fit`.
+double logSd(const GmwmFit& fit, int k) { return std::sqrt(std::max(fit.theta_cov(k, k), 0.0)); }
+
+/// The SI coefficients of `fit` and their 1-sigma, from its theta, theta_cov and tau0.
+void fillSiValues(const Layout& L, GmwmFit* fit) {
+  // SI values; sd of exp(theta/2)-type quantities by the delta method.
+  const double t0 = fit->tau0;
+  if (L.wn >= 0) {
+    fit->N = std::sqrt(std::exp(fit->theta[L.wn]) * t0);
+    fit->N_sd = fit->N * logSd(*fit, L.wn) / 2;
+  }
+  if (L.qn >= 0) {
+    fit->Q = std::sqrt(std::exp(fit->theta[L.qn])) * t0;
+    fit->Q_sd = fit->Q * logSd(*fit, L.qn) / 2;
+  }
+  if (L.rw >= 0) {
+    fit->K = std::sqrt(std::exp(fit->theta[L.rw]) / t0);
+    fit->K_sd = fit->K * logSd(*fit, L.rw) / 2;
+  }
+  if (L.dr >= 0) {
+    fit->R = std::sqrt(std::exp(fit->theta[L.dr])) / t0;
+    fit->R_sd = fit->R * logSd(*fit, L.dr) / 2;
+  }
+  for (int i = 0; i < L.n_gm; ++i) {
+    GaussMarkovTerm g;
+    g.sigma = std::sqrt(std::exp(fit->theta[L.gm0 + 2 * i]));
+    g.sigma_sd = g.sigma * logSd(*fit, L.gm0 + 2 * i) / 2;
+    g.tc = std::exp(fit->theta[L.gm0 + 2 * i + 1]) * t0;
+    g.tc_sd = g.tc * logSd(*fit, L.gm0 + 2 * i + 1);
+    fit->gm.push_back(g);
+  }
+}
+
+/// Sets fit->identified and names in fit->unidentified the coloured terms whose log sd is not below max_log_sd.
+void checkIdentified(const Layout& L, double max_log_sd, GmwmFit* fit) {
+  fit->identified = true;
+  auto check = [&](int k, const std::string& what) {
+    if (k >= 0 && !(logSd(*fit, k) < max_log_sd)) {
+      fit->identified = false;
+      fit->unidentified += (fit->unidentified.empty() ? "" : ", ") + what;
+    }
+  };
+  // WN is every model's base term and QN a sensor property: selection is among the coloured terms, so only those must
+  // be supported (a WN traded against a sub-sample GM, as on sensors with an internal low-pass, is no reason to
+  // reject the model).
+  check(L.rw, "RW");
+  check(L.dr, "DR");
+  for (int i = 0; i < L.n_gm; ++i) {
+    check(L.gm0 + 2 * i, "GM" + std::to_string(i + 1) + " sigma");
+    check(L.gm0 + 2 * i + 1, "GM" + std::to_string(i + 1) + " tc");
+  }
+}
+
+}  // namespace
+
+GmwmFit fitGmwm(const WaveletVariance& wv, const GmwmModel& model, const GmwmOptions& options) {
+  GmwmFit fit;
+  fit.model = model;
+  const Layout L(model);
+  const int J = static_cast<int>(wv.level.size());
+  if (L.p == 0) {
+    fit.message = "model has no term";
+    return fit;
+  }
+  if (J <= L.p) {
+    fit.message = "too few wavelet levels (" + std::to_string(J) + ") for " + std::to_string(L.p) + " parameters";
+    return fit;
+  }
+  for (double v : wv.nu2)
+    if (!(v > 0) || !std::isfinite(v)) {
+      fit.message = "a wavelet variance is zero or not finite (constant or broken data)";
+      return fit;
+    }
+  Problem P = makeProblem(wv, L);
+  // Robust starting values: WN from level 1, RW from the last level, GMs placed over a grid of correlation times with
+  // their variance from the WV near their peak scale (~4 tc); every combination is refined, the best kept.
+  int iters = 0;
+  Eigen::VectorXd best = bestStart(P, wv, model, startCombos(wv, L), &iters);
   // Efficient weighting: Omega at the current estimate, refit, repeat.
   Eigen::MatrixXd omega;
   for (int k = 0; k < std::max(1, options.weighting_iterations); ++k) {
@@ -508,78 +611,15 @@ GmwmFit fitGmwm(const WaveletVariance& wv, const GmwmModel& model, const GmwmOpt
   fit.chi2 = rw.squaredNorm();
   fit.tau0 = wv.tau0;
   fit.iterations = iters;
-  fit.theta = best;
   // Sort GMs by correlation time.
-  {
-    std::vector<std::pair<double, double>> g;
-    for (int i = 0; i < L.n_gm; ++i) g.push_back({best[L.gm0 + 2 * i + 1], best[L.gm0 + 2 * i]});
-    std::sort(g.begin(), g.end());
-    for (int i = 0; i < L.n_gm; ++i) {
-      fit.theta[L.gm0 + 2 * i] = g[static_cast<size_t>(i)].second;
-      fit.theta[L.gm0 + 2 * i + 1] = g[static_cast<size_t>(i)].first;
-    }
-  }
-  const Eigen::MatrixXd Jw = P.Winv_chol_inv * jacobian(P, fit.theta);
-  const Eigen::MatrixXd info = Jw.transpose() * Jw;
-  {
-    // Pseudo-inverse in correlation form: a direction the data do not inform (a term at its bound) gets an
-    // effectively infinite variance instead of whatever a near-singular solve returns.
-    Eigen::VectorXd d(L.p);
-    for (int k = 0; k < L.p; ++k) d[k] = info(k, k) > 0 ? 1.0 / std::sqrt(info(k, k)) : 1e150;
-    const Eigen::MatrixXd Cn = d.asDiagonal() * info * d.asDiagonal();
-    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(Cn);
-    Eigen::VectorXd inv = es.eigenvalues();
-    for (int k = 0; k < L.p; ++k) inv[k] = inv[k] > 1e-10 ? 1.0 / inv[k] : 1e20;
-    fit.theta_cov = d.asDiagonal() * (es.eigenvectors() * inv.asDiagonal() * es.eigenvectors().transpose()) *
-                    d.asDiagonal();
-  }
+  fit.theta = sortGaussMarkov(L, best);
+  fit.theta_cov = parameterCovariance(P, fit.theta);
   fit.dof = J - L.p;
   fit.chi2_p = fit.dof > 0 ? boost::math::cdf(boost::math::complement(boost::math::chi_squared(fit.dof), fit.chi2)) : 1.0;
   fit.criterion = fit.chi2 + options.penalty_per_parameter * L.p;
   fit.model_nu2 = gmwmModelWv(wv, model, fit.theta);
-  // SI values; sd of exp(theta/2)-type quantities by the delta method.
-  const double t0 = wv.tau0;
-  auto sdOf = [&](int k) { return std::sqrt(std::max(fit.theta_cov(k, k), 0.0)); };
-  if (L.wn >= 0) {
-    fit.N = std::sqrt(std::exp(fit.theta[L.wn]) * t0);
-    fit.N_sd = fit.N * sdOf(L.wn) / 2;
-  }
-  if (L.qn >= 0) {
-    fit.Q = std::sqrt(std::exp(fit.theta[L.qn])) * t0;
-    fit.Q_sd = fit.Q * sdOf(L.qn) / 2;
-  }
-  if (L.rw >= 0) {
-    fit.K = std::sqrt(std::exp(fit.theta[L.rw]) / t0);
-    fit.K_sd = fit.K * sdOf(L.rw) / 2;
-  }
-  if (L.dr >= 0) {
-    fit.R = std::sqrt(std::exp(fit.theta[L.dr])) / t0;
-    fit.R_sd = fit.R * sdOf(L.dr) / 2;
-  }
-  for (int i = 0; i < L.n_gm; ++i) {
-    GaussMarkovTerm g;
-    g.sigma = std::sqrt(std::exp(fit.theta[L.gm0 + 2 * i]));
-    g.sigma_sd = g.sigma * sdOf(L.gm0 + 2 * i) / 2;
-    g.tc = std::exp(fit.theta[L.gm0 + 2 * i + 1]) * t0;
-    g.tc_sd = g.tc * sdOf(L.gm0 + 2 * i + 1);
-    fit.gm.push_back(g);
-  }
-  fit.identified = true;
-  auto check = [&](int k, const std::string& what) {
-    if (k >= 0 && !(sdOf(k) < options.max_log_sd)) {
-      fit.identified = false;
-      fit.unidentified += (fit.unidentified.empty() ? "" : ", ") + what;
-    }
-  };
-  // WN is every model's base term and QN a sensor property: selection is among the coloured terms, so only those must
-  // be supported (a WN traded against a sub-sample GM, as on sensors with an internal low-pass, is no reason to
-  // reject the model).
-  check(L.rw, "RW");
-  check(L.dr, "DR");
-  for (int i = 0; i < L.n_gm; ++i) {
-    check(L.gm0 + 2 * i, "GM" + std::to_string(i + 1) + " sigma");
-    check(L.gm0 + 2 * i + 1, "GM" + std::to_string(i + 1) + " tc");
-  }
+  fillSiValues(L, &fit);
+  checkIdentified(L, options.max_log_sd, &fit);
   fit.ok = fit.theta.allFinite() && std::isfinite(fit.chi2);
   if (!fit.ok) fit.message = "the fit did not converge to finite values";
   return fit;

@@ -139,182 +139,218 @@ void runTaskGraph(const std::vector<std::function<void()>>& tasks, const std::ve
     if (e) std::rethrow_exception(e);
 }
 
-PipelineResult runPipeline(PipelineInput&& in, const PipelineOptions& options, StampReport* counted) {
+namespace {
+
+/// The working state of one runPipeline call, its stages as methods (the graph's tasks capture this object).
+struct PipelineRun {
+  PipelineRun(PipelineInput& in, const PipelineOptions& options)
+      : options(options), opt(options.analysis), so(options.sanitize), compact(in.compact), names(in.names),
+        t(in.t), values(in.values), gyro_c(in.gyro_c), accel(in.accel_c), t_c(in.t_c), temp_t(in.temperature_t),
+        temp_v(in.temperature) {}
+
+  const PipelineOptions& options;
+  const AnalysisOptions& opt;
+  const SanitizeOptions& so;
+  const bool compact;
+  const std::vector<std::string>& names;
+  std::vector<double>& t;
+  std::vector<std::vector<double>>& values;
+  std::array<CompactSeries, 3>& gyro_c;
+  std::array<CompactSeries, 3>& accel;
+  CompactStamps& t_c;
+  const std::vector<double>& temp_t;
+  const std::vector<double>& temp_v;
+
   PipelineResult meta;
-  const AnalysisOptions& opt = options.analysis;
-  const SanitizeOptions& so = options.sanitize;
-  auto profileStage = [&](const char* stage) {
-    if (options.stage) options.stage(stage);
-  };
-  const bool compact = in.compact;
-  const std::vector<std::string>& names = in.names;
-  std::vector<double>& t = in.t;
-  std::vector<std::vector<double>>& values = in.values;
-  std::array<CompactSeries, 3>& gyro_c = in.gyro_c;
-  std::array<CompactSeries, 3>& accel = in.accel_c;
-  CompactStamps& t_c = in.t_c;
-  const std::vector<double>& temp_t = in.temperature_t;
-  const std::vector<double>& temp_v = in.temperature;
-  if (compact) {
-    t = t_c.toSeconds();
-  } else {
-    if (values.empty() || values.size() > 3) throw std::invalid_argument("1 to 3 value columns expected");
-    if (names.size() != values.size()) throw std::invalid_argument("one name per value column expected");
-  }
   SanitizedSeries ss;
-  if (compact) {
-    ss = sanitizeCompact(t, {&gyro_c[0], &gyro_c[1], &gyro_c[2]}, so);  // kept indices; values stay compact
-  } else {
-    std::vector<const std::vector<double>*> ptrs;
-    for (const auto& v : values) ptrs.push_back(&v);
-    ss = sanitize(t, ptrs, so);
-    for (auto& v : values) std::vector<double>().swap(v);
-  }
-  const size_t n_stamps = t.size();
-  if (compact) std::vector<double>().swap(t);  // rebuilt from t_c for the accelerometer
-  releaseFreed();
-  profileStage("sanitize");
-  meta.stamps = ss.report;
-  if (counted) *counted = ss.counted;
-  meta.warnings = ss.report.warnings();
-  if (ss.report.kept < 3 || !(ss.report.nominal_period_s > 0))
-    throw std::invalid_argument("too few valid samples (" + std::to_string(ss.report.kept) + " of " +
-                                std::to_string(ss.report.input) + ")");
-  const double tau0 = ss.report.nominal_period_s;
-  meta.tau0 = tau0;
-  // At rest? (rest.hpp) The gyro axes and, when published, the accelerometer, fed sample by sample from their stored
-  // form. A sensor that moved is analysed over its longest static stretch, or not at all.
+  size_t n_stamps = 0;
+  double tau0 = 0;
   double rest_t0 = 0, rest_t1 = 0;  // the analysed stretch by stamp (for the accelerometer's own sanitation)
   bool accel_published = false;
-  if (options.accel && compact && !accel[0].empty() && accel[0].size() == n_stamps)
-    for (const auto& v : accel)
-      for (size_t i = 0; i < v.size() && !accel_published; ++i) accel_published = v[i] != 0 && std::isfinite(v[i]);
-  if (opt.input == InputKind::Rate && options.rest_check) {
-    std::vector<size_t> sizes;
-    for (const auto& seg : ss.segments) sizes.push_back(seg.size());
-    const size_t n_axes = compact ? 3 : names.size();
-    // Channel c of sample i of segment k, read-only (called from several threads): gyro axes, then the
-    // accelerometer's, whose NaN samples (the gyro's were dropped by the sanitation) take the last finite value.
-    auto sample = [&](int c, size_t k, size_t i) -> double {
-      const size_t idx = ss.segments[k].begin + i;
-      if (!compact) return ss.v[static_cast<size_t>(c)][idx];
-      const size_t j = ss.kept.empty() ? idx : ss.kept[idx];
-      if (c < 3) return gyro_c[static_cast<size_t>(c)][j];
-      const CompactSeries& a = accel[static_cast<size_t>(c - 3)];
-      for (size_t q = j + 1; q-- > 0;)
-        if (std::isfinite(a[q])) return a[q];
-      return 0.0;
-    };
-    meta.rest = detectRest(static_cast<int>(n_axes), accel_published, tau0, sizes, sample);
-    meta.rest_checked = true;
-    profileStage("rest");
-    if (!meta.rest.at_rest) {
-      const RestInterval st = meta.rest.longest_static;
-      char buf[600];
-      if (!meta.rest.static_usable) {
-        std::snprintf(buf, sizeof buf,
-                      "not at rest: the sensor moved (%s); moving in %.0f %% of the record and no static stretch of "
-                      "%g s (longest %.1f s): noise coefficients need a static recording (--no-rest-check analyses "
-                      "it anyway)",
-                      meta.rest.reason.c_str(), 100 * meta.rest.moving_fraction, RestOptions().min_static_s,
-                      static_cast<double>(st.end - st.begin) * tau0);
-        throw std::invalid_argument(buf);
-      }
-      rest_t0 = ss.t[static_cast<size_t>(st.begin)];
-      rest_t1 = ss.t[static_cast<size_t>(st.end - 1)];
-      meta.rest_restricted = true;
-      meta.rest_from_s = rest_t0 - ss.t.front();
-      meta.rest_to_s = rest_t1 - ss.t.front();
-      meta.rest_excluded = ss.restrictTo(static_cast<size_t>(st.begin), static_cast<size_t>(st.end));
-      std::snprintf(buf, sizeof buf,
-                    "the sensor moved (%s; %.0f %% of the record): only the longest static stretch is analysed, "
-                    "%.1f-%.1f s (%.1f s of %.1f s)",
-                    meta.rest.reason.c_str(), 100 * meta.rest.moving_fraction, meta.rest_from_s, meta.rest_to_s,
-                    meta.rest_to_s - meta.rest_from_s, ss.t.back() - ss.t.front());
-      meta.warnings.push_back(buf);
-    }
-  }
-  const std::vector<std::vector<double>> temperature_segments = ss.interpolateSegments(temp_t, temp_v);
-  // Gyro axes as a task graph on --jobs threads: per axis prepare (oadev + fit), then the wavelet split and the
-  // model check; a free thread takes the earliest ready stage, so axes are worked on in order and at most --jobs
-  // stages (not whole axes) hold working memory at a time.
-  const size_t n_gyro = names.size();
-  std::vector<AxisAnalysis> results(n_gyro);
-  std::vector<std::vector<std::string>> axis_warnings(n_gyro);
-  std::vector<std::unique_ptr<AxisStages>> stages(n_gyro);
+  std::vector<std::vector<double>> temperature_segments;
+  // Gyro axes.
+  std::vector<AxisAnalysis> results;
+  std::vector<std::vector<std::string>> axis_warnings;
+  std::vector<std::unique_ptr<AxisStages>> stages;
   std::vector<std::function<void()>> tasks;
   std::vector<std::vector<size_t>> deps;
-  std::vector<double>().swap(ss.t);  // stamps are not needed any more (temperature already interpolated)
-  size_t last_split = SIZE_MAX;
   std::vector<size_t> split_tasks;
-  for (size_t a = 0; a < n_gyro; ++a) {
-    const size_t prep = tasks.size();
-    tasks.push_back([&, a] {
-      // This axis as doubles (its compact copy is freed), split into segments.
-      std::vector<std::vector<double>> segs;
-      if (compact) {
-        segs = ss.segmentValuesOf(gyro_c[a]);
-        gyro_c[a].clear();
-      } else {
-        segs = ss.takeSegmentValues(static_cast<int>(a));
-      }
-      if (opt.input == InputKind::Rate) {
-        // Saturation warnings here; isolated spikes are removed and reported by the analysis itself (spikes.hpp)
-        // unless --keep-spikes, when they are only warned about as before.
-        ValueAnomalies va;
-        if (segs.size() == 1) {
-          va = detectValueAnomalies(segs[0]);
-        } else {
-          std::vector<double> all;
-          for (const auto& g : segs) all.insert(all.end(), g.begin(), g.end());
-          va = detectValueAnomalies(all);
-        }
-        if (opt.remove_spikes) va.spikes = 0;
-        axis_warnings[a] = va.warnings("axis " + names[a]);
-      }
-      stages[a] = std::make_unique<AxisStages>(names[a], std::move(segs), tau0, opt,
-                                               temperature_segments.empty() ? nullptr : &temperature_segments);
-      stages[a]->prepare();
-    });
-    deps.push_back({});
-    // Splits one at a time: the split holds the most memory (~3.5 records), so two never overlap.
-    tasks.push_back([&, a] { stages[a]->split(); });
-    deps.push_back(last_split == SIZE_MAX ? std::vector<size_t>{prep} : std::vector<size_t>{prep, last_split});
-    last_split = tasks.size() - 1;
-    split_tasks.push_back(last_split);
-    tasks.push_back([&, a] { stages[a]->check(); });
-    deps.push_back({prep});
-    // Finish as soon as both are done: the axis's samples are freed here, not after the whole graph.
-    tasks.push_back([&, a] {
-      results[a] = stages[a]->finish();
-      stages[a].reset();
-      noteStaticStretch(meta, &results[a]);
-    });
-    deps.push_back({tasks.size() - 3, tasks.size() - 2});
-  }
-  // Accelerometer: the same engine, joint fit only (the wavelet split and model check are tuned for gyros and
-  // would double the run time); the mean (gravity) is removed first. Its sanitation and three axes are graph tasks
-  // after the last gyro check, so they run beside the last wavelet split.
+  // Accelerometer.
   std::string accel_note;  // why the accelerometer was not analysed (stdout, not a warning: gyro-only IMUs are fine)
   std::vector<AxisAnalysis> accel_results;
   std::vector<double> accel_means;
   std::string accel_error;  // set: not analysed, with this reason
-  if (options.accel && compact && !accel[0].empty() && accel[0].size() == n_stamps) {
-    if (!accel_published) {  // an IMU without accelerometer publishes zeros
-      accel_note = "accelerometer: linear_acceleration is all zero (not published?): not analysed";
+  AnalysisOptions ao;
+  SanitizedSeries sa;
+  std::vector<std::string> accel_errors = std::vector<std::string>(3);
+
+  /// Reports a finished stage to the profiling callback, if any.
+  void profileStage(const char* stage) {
+    if (options.stage) options.stage(stage);
+  }
+
+  /// Checks the input's shape, sanitizes the stamps and gyro samples, and takes the stamp report and tau0 into meta.
+  void sanitizeGyro(StampReport* counted) {
+    if (compact) {
+      t = t_c.toSeconds();
     } else {
-      accel_results.resize(3);
-      accel_means.resize(3);
+      if (values.empty() || values.size() > 3) throw std::invalid_argument("1 to 3 value columns expected");
+      if (names.size() != values.size()) throw std::invalid_argument("one name per value column expected");
+    }
+    if (compact) {
+      ss = sanitizeCompact(t, {&gyro_c[0], &gyro_c[1], &gyro_c[2]}, so);  // kept indices; values stay compact
+    } else {
+      std::vector<const std::vector<double>*> ptrs;
+      for (const auto& v : values) ptrs.push_back(&v);
+      ss = sanitize(t, ptrs, so);
+      for (auto& v : values) std::vector<double>().swap(v);
+    }
+    n_stamps = t.size();
+    if (compact) std::vector<double>().swap(t);  // rebuilt from t_c for the accelerometer
+    releaseFreed();
+    profileStage("sanitize");
+    meta.stamps = ss.report;
+    if (counted) *counted = ss.counted;
+    meta.warnings = ss.report.warnings();
+    if (ss.report.kept < 3 || !(ss.report.nominal_period_s > 0))
+      throw std::invalid_argument("too few valid samples (" + std::to_string(ss.report.kept) + " of " +
+                                  std::to_string(ss.report.input) + ")");
+    tau0 = ss.report.nominal_period_s;
+    meta.tau0 = tau0;
+  }
+
+  /// At rest? Throws when the sensor moved and has no usable static stretch, else restricts ss to the longest one.
+  void checkRest() {
+    // At rest? (rest.hpp) The gyro axes and, when published, the accelerometer, fed sample by sample from their
+    // stored form. A sensor that moved is analysed over its longest static stretch, or not at all.
+    if (options.accel && compact && !accel[0].empty() && accel[0].size() == n_stamps)
+      for (const auto& v : accel)
+        for (size_t i = 0; i < v.size() && !accel_published; ++i) accel_published = v[i] != 0 && std::isfinite(v[i]);
+    if (opt.input == InputKind::Rate && options.rest_check) {
+      std::vector<size_t> sizes;
+      for (const auto& seg : ss.segments) sizes.push_back(seg.size());
+      const size_t n_axes = compact ? 3 : names.size();
+      // Channel c of sample i of segment k, read-only (called from several threads): gyro axes, then the
+      // accelerometer's, whose NaN samples (the gyro's were dropped by the sanitation) take the last finite value.
+      auto sample = [&](int c, size_t k, size_t i) -> double {
+        const size_t idx = ss.segments[k].begin + i;
+        if (!compact) return ss.v[static_cast<size_t>(c)][idx];
+        const size_t j = ss.kept.empty() ? idx : ss.kept[idx];
+        if (c < 3) return gyro_c[static_cast<size_t>(c)][j];
+        const CompactSeries& a = accel[static_cast<size_t>(c - 3)];
+        for (size_t q = j + 1; q-- > 0;)
+          if (std::isfinite(a[q])) return a[q];
+        return 0.0;
+      };
+      meta.rest = detectRest(static_cast<int>(n_axes), accel_published, tau0, sizes, sample);
+      meta.rest_checked = true;
+      profileStage("rest");
+      if (!meta.rest.at_rest) {
+        const RestInterval st = meta.rest.longest_static;
+        char buf[600];
+        if (!meta.rest.static_usable) {
+          std::snprintf(buf, sizeof buf,
+                        "not at rest: the sensor moved (%s); moving in %.0f %% of the record and no static stretch "
+                        "of %g s (longest %.1f s): noise coefficients need a static recording (--no-rest-check "
+                        "analyses it anyway)",
+                        meta.rest.reason.c_str(), 100 * meta.rest.moving_fraction, RestOptions().min_static_s,
+                        static_cast<double>(st.end - st.begin) * tau0);
+          throw std::invalid_argument(buf);
+        }
+        rest_t0 = ss.t[static_cast<size_t>(st.begin)];
+        rest_t1 = ss.t[static_cast<size_t>(st.end - 1)];
+        meta.rest_restricted = true;
+        meta.rest_from_s = rest_t0 - ss.t.front();
+        meta.rest_to_s = rest_t1 - ss.t.front();
+        meta.rest_excluded = ss.restrictTo(static_cast<size_t>(st.begin), static_cast<size_t>(st.end));
+        std::snprintf(buf, sizeof buf,
+                      "the sensor moved (%s; %.0f %% of the record): only the longest static stretch is analysed, "
+                      "%.1f-%.1f s (%.1f s of %.1f s)",
+                      meta.rest.reason.c_str(), 100 * meta.rest.moving_fraction, meta.rest_from_s, meta.rest_to_s,
+                      meta.rest_to_s - meta.rest_from_s, ss.t.back() - ss.t.front());
+        meta.warnings.push_back(buf);
+      }
     }
   }
-  AnalysisOptions ao = opt;
-  ao.wavelet_split = false;
-  ao.model_check = false;
-  ao.method = "joint_fit";
-  ao.gmwm = false;  // GMWM (#16): gyro only
-  SanitizedSeries sa;
-  std::vector<std::string> accel_errors(3);
-  if (!accel_results.empty()) {
+
+  /// Adds each gyro axis's tasks (prepare, split, check, finish) to the graph; interpolates the temperature first.
+  void addGyroTasks() {
+    temperature_segments = ss.interpolateSegments(temp_t, temp_v);
+    // Gyro axes as a task graph on --jobs threads: per axis prepare (oadev + fit), then the wavelet split and the
+    // model check; a free thread takes the earliest ready stage, so axes are worked on in order and at most --jobs
+    // stages (not whole axes) hold working memory at a time.
+    const size_t n_gyro = names.size();
+    results.resize(n_gyro);
+    axis_warnings.resize(n_gyro);
+    stages.resize(n_gyro);
+    std::vector<double>().swap(ss.t);  // stamps are not needed any more (temperature already interpolated)
+    size_t last_split = SIZE_MAX;
+    for (size_t a = 0; a < n_gyro; ++a) {
+      const size_t prep = tasks.size();
+      tasks.push_back([&, a] {
+        // This axis as doubles (its compact copy is freed), split into segments.
+        std::vector<std::vector<double>> segs;
+        if (compact) {
+          segs = ss.segmentValuesOf(gyro_c[a]);
+          gyro_c[a].clear();
+        } else {
+          segs = ss.takeSegmentValues(static_cast<int>(a));
+        }
+        if (opt.input == InputKind::Rate) {
+          // Saturation warnings here; isolated spikes are removed and reported by the analysis itself (spikes.hpp)
+          // unless --keep-spikes, when they are only warned about as before.
+          ValueAnomalies va;
+          if (segs.size() == 1) {
+            va = detectValueAnomalies(segs[0]);
+          } else {
+            std::vector<double> all;
+            for (const auto& g : segs) all.insert(all.end(), g.begin(), g.end());
+            va = detectValueAnomalies(all);
+          }
+          if (opt.remove_spikes) va.spikes = 0;
+          axis_warnings[a] = va.warnings("axis " + names[a]);
+        }
+        stages[a] = std::make_unique<AxisStages>(names[a], std::move(segs), tau0, opt,
+                                                 temperature_segments.empty() ? nullptr : &temperature_segments);
+        stages[a]->prepare();
+      });
+      deps.push_back({});
+      // Splits one at a time: the split holds the most memory (~3.5 records), so two never overlap.
+      tasks.push_back([&, a] { stages[a]->split(); });
+      deps.push_back(last_split == SIZE_MAX ? std::vector<size_t>{prep} : std::vector<size_t>{prep, last_split});
+      last_split = tasks.size() - 1;
+      split_tasks.push_back(last_split);
+      tasks.push_back([&, a] { stages[a]->check(); });
+      deps.push_back({prep});
+      // Finish as soon as both are done: the axis's samples are freed here, not after the whole graph.
+      tasks.push_back([&, a] {
+        results[a] = stages[a]->finish();
+        stages[a].reset();
+        noteStaticStretch(meta, &results[a]);
+      });
+      deps.push_back({tasks.size() - 3, tasks.size() - 2});
+    }
+  }
+
+  /// Adds the accelerometer's sanitation and three axes to the graph, when it is analysed.
+  void addAccelTasks() {
+    // Accelerometer: the same engine, joint fit only (the wavelet split and model check are tuned for gyros and
+    // would double the run time); the mean (gravity) is removed first. Its sanitation and three axes are graph
+    // tasks after the last gyro check, so they run beside the last wavelet split.
+    if (options.accel && compact && !accel[0].empty() && accel[0].size() == n_stamps) {
+      if (!accel_published) {  // an IMU without accelerometer publishes zeros
+        accel_note = "accelerometer: linear_acceleration is all zero (not published?): not analysed";
+      } else {
+        accel_results.resize(3);
+        accel_means.resize(3);
+      }
+    }
+    ao = opt;
+    ao.wavelet_split = false;
+    ao.model_check = false;
+    ao.method = "joint_fit";
+    ao.gmwm = false;  // GMWM (#16): gyro only
+    if (accel_results.empty()) return;
     const size_t sanitize_task = tasks.size();
     tasks.push_back([&] {
       try {
@@ -350,39 +386,54 @@ PipelineResult runPipeline(PipelineInput&& in, const PipelineOptions& options, S
       deps.push_back({sanitize_task});
     }
   }
-  runTaskGraph(tasks, deps, options.jobs);
-  profileStage("axes");
-  for (size_t a = 0; a < n_gyro; ++a) {
-    // A gyro at rest reads Earth rate plus bias: hundreds of deg/s means wrong units or a moving sensor.
-    if (opt.input == InputKind::Rate && std::fabs(results[a].mean) > 1.0)
-      axis_warnings[a].push_back("axis " + names[a] + ": mean rate " + std::to_string(results[a].mean) +
-                                 " rad/s is not a gyro at rest (wrong units or a moving sensor?)");
+
+  /// After the graph: frees the stamps, gathers the warnings, and moves the results into meta.
+  void collect() {
+    for (size_t a = 0; a < results.size(); ++a) {
+      // A gyro at rest reads Earth rate plus bias: hundreds of deg/s means wrong units or a moving sensor.
+      if (opt.input == InputKind::Rate && std::fabs(results[a].mean) > 1.0)
+        axis_warnings[a].push_back("axis " + names[a] + ": mean rate " + std::to_string(results[a].mean) +
+                                   " rad/s is not a gyro at rest (wrong units or a moving sensor?)");
+    }
+    {
+      const StampReport keep = ss.report;
+      ss = SanitizedSeries();  // free the stamps
+      ss.report = keep;
+    }
+    for (const auto& w : axis_warnings) meta.warnings.insert(meta.warnings.end(), w.begin(), w.end());
+    for (const auto& r : results)
+      if (r.spikes_checked && r.spikes.count > 0) meta.warnings.push_back(spikeWarning(r));
+    for (const auto& r : results)
+      if (r.quality.quality == Quality::Bad) meta.warnings.push_back(badFitWarning(r));
+    for (const auto& e : accel_errors)
+      if (accel_error.empty() && !e.empty()) accel_error = e;
+    if (!accel_error.empty()) {
+      accel_results.clear();
+      accel_means.clear();
+      meta.warnings.push_back("accelerometer not analysed: " + accel_error);
+    }
+    for (const auto& r : accel_results)
+      if (r.quality.quality == Quality::Bad) meta.warnings.push_back(badFitWarning(r));
+    profileStage("analysis");
+    meta.gyro = std::move(results);
+    meta.accel = std::move(accel_results);
+    meta.accel_means = std::move(accel_means);
+    meta.accel_note = accel_note;
   }
-  {
-    const StampReport keep = ss.report;
-    ss = SanitizedSeries();  // free the stamps
-    ss.report = keep;
-  }
-  for (const auto& w : axis_warnings) meta.warnings.insert(meta.warnings.end(), w.begin(), w.end());
-  for (const auto& r : results)
-    if (r.spikes_checked && r.spikes.count > 0) meta.warnings.push_back(spikeWarning(r));
-  for (const auto& r : results)
-    if (r.quality.quality == Quality::Bad) meta.warnings.push_back(badFitWarning(r));
-  for (const auto& e : accel_errors)
-    if (accel_error.empty() && !e.empty()) accel_error = e;
-  if (!accel_error.empty()) {
-    accel_results.clear();
-    accel_means.clear();
-    meta.warnings.push_back("accelerometer not analysed: " + accel_error);
-  }
-  for (const auto& r : accel_results)
-    if (r.quality.quality == Quality::Bad) meta.warnings.push_back(badFitWarning(r));
-  profileStage("analysis");
-  meta.gyro = std::move(results);
-  meta.accel = std::move(accel_results);
-  meta.accel_means = std::move(accel_means);
-  meta.accel_note = accel_note;
-  return meta;
+};
+
+}  // namespace
+
+PipelineResult runPipeline(PipelineInput&& in, const PipelineOptions& options, StampReport* counted) {
+  PipelineRun run(in, options);
+  run.sanitizeGyro(counted);
+  run.checkRest();
+  run.addGyroTasks();
+  run.addAccelTasks();
+  runTaskGraph(run.tasks, run.deps, options.jobs);
+  run.profileStage("axes");
+  run.collect();
+  return std::move(run.meta);
 }
 
 }  // namespace gyro_allan
