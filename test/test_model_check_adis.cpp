@@ -11,24 +11,13 @@
 #include "gyro_allan/csv_input.hpp"
 #include "gyro_allan/model_check.hpp"
 #include "gyro_allan/noise_model.hpp"
+#include "adis_data.hpp"
 
 using namespace gyro_allan;
 
 namespace {
 
-// Gyro columns of run `run` (1-3) in rad/s (empty when the shared data is missing).
-std::vector<std::vector<double>> readRun(int run) {
-  const std::string path = std::string(GYRO_ALLAN_SHARED_DATA) + "/adis16405/adis16405_imu" + std::to_string(run) +
-                           "_100Hz.csv.gz";
-  FILE* probe = std::fopen(path.c_str(), "rb");
-  if (!probe) return std::vector<std::vector<double>>(3);
-  std::fclose(probe);
-  CsvOptions o;
-  o.scale = M_PI / 180.0;
-  CsvSeries c = readCsvFile(path, o);
-  c.columns.resize(3);
-  return std::move(c.columns);
-}
+std::vector<std::vector<double>> readRun(int run) { return gyro_allan_test::readAdisRun(run); }
 
 ModelCheck check(const std::vector<double>& rate) {
   DeviationOptions o;

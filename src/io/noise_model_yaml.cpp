@@ -1,5 +1,6 @@
 // Writes noise_model.yaml (the GMWM state-space bias model) and the GMWM summary lines; see README "noise_model.yaml".
 #include "gyro_allan/io/noise_model_yaml.hpp"
+#include "gyro_allan/io/report.hpp"
 
 #include <cmath>
 #include <cstdio>
@@ -7,13 +8,7 @@
 namespace gyro_allan {
 namespace {
 
-YAML::Node num(double v) {
-  if (std::isnan(v)) return YAML::Node(".nan");
-  if (std::isinf(v)) return YAML::Node(v > 0 ? ".inf" : "-.inf");
-  char buf[40];
-  std::snprintf(buf, sizeof buf, "%.10g", v);
-  return YAML::Node(std::string(buf));
-}
+YAML::Node num(double v) { return yamlNumber(v); }
 
 YAML::Node valueSd(double value, double sd, const char* unit) {
   YAML::Node n;

@@ -13,14 +13,7 @@
 namespace gyro_allan {
 namespace {
 
-/// A double as a plain YAML scalar with 10 significant digits (yaml-cpp would print 17: 0.68300000000000005).
-YAML::Node num(double v) {
-  if (std::isnan(v)) return YAML::Node(".nan");
-  if (std::isinf(v)) return YAML::Node(v > 0 ? ".inf" : "-.inf");
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.10g", v);
-  return YAML::Node(std::string(buf));
-}
+YAML::Node num(double v) { return yamlNumber(v); }
 
 /// A string scalar: tagged "!" (YAML's non-specific tag of a quoted scalar, never printed by the emitter) so that
 /// toJson writes it as a JSON string whatever it looks like. Every text value of the report goes through str();
@@ -396,6 +389,14 @@ YAML::Node buildReport(const ReportMeta& meta, const std::vector<AxisAnalysis>& 
   }
   r["axes"] = ax;
   return r;
+}
+
+YAML::Node yamlNumber(double v) {
+  if (std::isnan(v)) return YAML::Node(".nan");
+  if (std::isinf(v)) return YAML::Node(v > 0 ? ".inf" : "-.inf");
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.10g", v);
+  return YAML::Node(std::string(buf));
 }
 
 std::string toYaml(const YAML::Node& node) {

@@ -37,6 +37,10 @@ struct ReportMeta {
 YAML::Node buildReport(const ReportMeta& meta, const std::vector<AxisAnalysis>& axes);
 /// YAML text or JSON text of a tree. JSON keeps the types the tree was built with (text from report.cpp's str()
 /// stays a string however it looks; numbers, integers and bools as such; NaN/inf as null).
+/// A double as a plain YAML scalar with 10 significant digits (.nan, .inf, -.inf for the non-finite); yaml-cpp would
+/// print 17 (0.68300000000000005). Shared by every YAML file the tools write.
+YAML::Node yamlNumber(double v);
+
 std::string toYaml(const YAML::Node& node);
 std::string toJson(const YAML::Node& node);
 /// allan.csv: one row per (axis, deviation, tau); columns in README.
