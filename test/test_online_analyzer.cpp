@@ -168,6 +168,17 @@ void expectSameResult(const PipelineResult& a, const PipelineResult& b) {
   EXPECT_EQ(a.accel_means, b.accel_means);
 }
 
+// Window and hop [s] of a test that needs no wavelet split, model check or at-rest check (fast analyses).
+OnlineOptions plainOptions(double window_s, double hop_s) {
+  OnlineOptions oo;
+  oo.pipeline.analysis.wavelet_split = false;
+  oo.pipeline.analysis.model_check = false;
+  oo.pipeline.rest_check = false;
+  oo.window_s = window_s;
+  oo.hop_s = hop_s;
+  return oo;
+}
+
 }  // namespace
 
 TEST(OnlineAnalyzer, WholeRecordWindowEqualsOfflinePipeline) {
@@ -266,12 +277,7 @@ TEST(OnlineAnalyzer, SlidingWindowCountsEachProblemOnce) {
 TEST(OnlineAnalyzer, SkippedHopsResetAndBadOptions) {
   Injected truth;
   const std::vector<Event> ev = record(130, {}, {}, {}, 0, 0, &truth);
-  OnlineOptions oo;
-  oo.pipeline.analysis.wavelet_split = false;
-  oo.pipeline.analysis.model_check = false;
-  oo.pipeline.rest_check = false;
-  oo.window_s = 100;
-  oo.hop_s = 20;
+  OnlineOptions oo = plainOptions(100, 20);
   OnlineAnalyzer oa(oo);
   int due = 0;
   for (const Event& e : ev) {
@@ -317,12 +323,7 @@ TEST(OnlineAnalyzer, StampGlitchMovesNeitherWindowNorClock) {
   // three stamps. The glitch itself is dropped by the sanitation as out of order.
   Injected truth;
   std::vector<Event> ev = record(60, {}, {}, {}, 0, 0, &truth);
-  OnlineOptions oo;
-  oo.pipeline.analysis.wavelet_split = false;
-  oo.pipeline.analysis.model_check = false;
-  oo.pipeline.rest_check = false;
-  oo.window_s = 100;
-  oo.hop_s = 100;
+  OnlineOptions oo = plainOptions(100, 100);
   OnlineAnalyzer oa(oo);
   size_t n = 0;
   for (Event e : ev) {
@@ -342,12 +343,7 @@ TEST(OnlineAnalyzer, StampGlitchLeavesTheWindowLikeAnySample) {
   // leaves like any other, so the window stays 30 s long (it must not hold the window open behind it).
   Injected truth;
   std::vector<Event> ev = record(60, {}, {}, {}, 0, 0, &truth);
-  OnlineOptions oo;
-  oo.pipeline.analysis.wavelet_split = false;
-  oo.pipeline.analysis.model_check = false;
-  oo.pipeline.rest_check = false;
-  oo.window_s = 30;
-  oo.hop_s = 30;
+  OnlineOptions oo = plainOptions(30, 30);
   OnlineAnalyzer oa(oo);
   size_t n = 0;
   int due = 0;
