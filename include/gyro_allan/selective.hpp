@@ -47,7 +47,6 @@ SelectiveEstimate selectiveEstimate(double x, const VarianceModel& v, const Sele
 /// statistical analysis of small signals"): for each mu on a grid the acceptance region holds the values of X whose
 /// likelihood ratio f(X | mu) / f(X | best mu >= 0) is highest, up to probability `confidence`; the interval is the
 /// set of mu whose region holds x. The grid's resolution is ~1/140 of the range searched.
-void droppedIntervalFC(double x, const VarianceModel& v, double threshold, const double confidence[2], double lo[2],
-                       double hi[2]);
+void droppedIntervalFC(double x, const VarianceModel& v, double threshold, double confidence, double* lo, double* hi);
 
 }  // namespace gyro_allan

@@ -427,7 +427,7 @@ struct GlsFit {
       if (co.supported) {
         co.sigma = ti.sd0 / (2.0 * co.value);  // delta method at the least-squares value (the model check's gates)
       } else {
-        co.sigma = co.hi68;  // a 1-sigma upper bound
+        co.sigma = co.hi68;  // the upper end of its 68 % interval
       }
       const int t = P.term[static_cast<size_t>(col)];
       if (t < kNumTerms) {

@@ -112,20 +112,15 @@ SelectiveEstimate selectiveEstimate(double x, const VarianceModel& v, const Sele
     // 95 %: the one-sided power-constrained bound [0, hi] (x counted as max(x, 0)). The unified 95 % interval's lower
     // end missed the truth 7-8 % of the time in the coverage study (the long-tau Allan points behind B, K and R are
     // right-skewed, not normal), so the 95 % statement is the conservative one (docs/calibration.md).
-    const double cl[2] = {1.0 - 2.0 * kP68, 1.0 - 2.0 * kP95};
-    double lo[2], hi[2];
-    droppedIntervalFC(x, v, std::max(e.threshold, std::nextafter(x, std::numeric_limits<double>::infinity())), cl, lo,
-                      hi);
-    r.lo68 = lo[0];
-    r.hi68 = hi[0];
+    droppedIntervalFC(x, v, std::max(e.threshold, std::nextafter(x, std::numeric_limits<double>::infinity())),
+                      1.0 - 2.0 * kP68, &r.lo68, &r.hi68);
     r.lo95 = 0.0;
-    r.hi95 = std::max(selectiveSolve(xx, 2.0 * kP95, v, ev), hi[0]);
+    r.hi95 = std::max(selectiveSolve(xx, 2.0 * kP95, v, ev), r.hi68);
   }
   return r;
 }
 
-void droppedIntervalFC(double x, const VarianceModel& v, double threshold, const double confidence[2], double lo[2],
-                       double hi[2]) {
+void droppedIntervalFC(double x, const VarianceModel& v, double threshold, double confidence, double* lo, double* hi) {
   const bool truncated = std::isfinite(threshold);
   // The range of mu searched must not depend on x (else each observation would get its own construction): with a
   // truncation, up to the threshold plus 10 sd there (a truth beyond it is dropped with probability < 1e-23; the
@@ -172,7 +167,7 @@ void droppedIntervalFC(double x, const VarianceModel& v, double threshold, const
   for (int k = 0; k < kMu; ++k) best_obs = std::max(best_obs, logf(x, k));
   // x lies in mu's acceptance region when the values ranked above it (higher likelihood ratio) hold less than the
   // confidence: no sort needed.
-  int first[2] = {-1, -1}, last[2] = {-1, -1};
+  int first = -1, last = -1;
   for (int k = 0; k < kMu; ++k) {
     const double* row = &lf[static_cast<size_t>(k) * kX];
     double peak = -std::numeric_limits<double>::infinity();
@@ -186,23 +181,19 @@ void droppedIntervalFC(double x, const VarianceModel& v, double threshold, const
       if (row[j] - best[j] > r_obs) above += m;
     }
     if (!(total > 0)) continue;
-    for (int c = 0; c < 2; ++c) {
-      if (above / total < confidence[c]) {
-        if (first[c] < 0) first[c] = k;
-        last[c] = k;
-      }
+    if (above / total < confidence) {
+      if (first < 0) first = k;
+      last = k;
     }
   }
-  for (int c = 0; c < 2; ++c) {
-    if (last[c] < 0) {  // no grid point accepts x (cannot happen for a proper ordering): the best mu's neighbourhood
-      lo[c] = 0.0;
-      hi[c] = std::max(x, 0.0) + mus[1];
-      continue;
-    }
-    // each accepted grid point stands for the half-way marks to its neighbours
-    lo[c] = first[c] == 0 ? 0.0 : 0.5 * (mus[first[c] - 1] + mus[first[c]]);
-    hi[c] = last[c] == kMu - 1 ? mu_max : 0.5 * (mus[last[c]] + mus[last[c] + 1]);
+  if (last < 0) {  // no grid point accepts x (cannot happen for a proper ordering): the best mu's neighbourhood
+    *lo = 0.0;
+    *hi = std::max(x, 0.0) + mus[1];
+    return;
   }
+  // each accepted grid point stands for the half-way marks to its neighbours
+  *lo = first == 0 ? 0.0 : 0.5 * (mus[first - 1] + mus[first]);
+  *hi = last == kMu - 1 ? mu_max : 0.5 * (mus[last] + mus[last + 1]);
 }
 
 }  // namespace gyro_allan
