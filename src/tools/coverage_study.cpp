@@ -151,6 +151,7 @@ struct Run {
   bool ok = false;
   std::string error;
   std::string method;
+  std::string quality;  // the axis's verdict (good | doubtful | bad); a bad axis's intervals are [0, inf)
   double rms_log10 = 0, chi2_dof = 0;
   std::array<Coefficient, kNumTerms> c;
 };
@@ -396,6 +397,7 @@ int main(int argc, char** argv) {
           const AxisAnalysis a = analyzeAxis("x", seg, 1.0 / j.rate_hz, opt);
           r.c = a.coefficients;
           r.method = a.method;
+          r.quality = qualityName(a.quality.quality);
           r.rms_log10 = a.final_error.rms_log10;
           r.chi2_dof = a.final_error.chi2_dof;
           r.ok = true;
@@ -419,7 +421,7 @@ int main(int argc, char** argv) {
       if (!csv) throw std::runtime_error("cannot write " + csv_path);
       std::fprintf(csv,
                    "class,duration_s,rate_hz,seed,sim_seed,term,truth,value,sigma,lo68,hi68,lo95,hi95,supported,"
-                   "method,rms_log10,chi2_dof,error\n");
+                   "method,quality,rms_log10,chi2_dof,error\n");
       for (const auto& r : runs) {
         const Job& j = jobs[r.job];
         for (int t = 0; t < kNumTerms; ++t) {
@@ -427,10 +429,10 @@ int main(int argc, char** argv) {
           std::string err = r.error;
           for (auto& ch : err)
             if (ch == ',' || ch == '"' || ch == '\n') ch = ';';
-          std::fprintf(csv, "%s,%.0f,%.6g,%d,%llu,%s,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%d,%s,%.6g,%.6g,%s\n",
+          std::fprintf(csv, "%s,%.0f,%.6g,%d,%llu,%s,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%d,%s,%s,%.6g,%.6g,%s\n",
                        j.k.name.c_str(), j.duration_s, j.rate_hz, r.seed,
                        static_cast<unsigned long long>(r.sim_seed), kTermShort[t], truthOf(j.k.a, t), c.value,
-                       c.sigma, c.lo68, c.hi68, c.lo95, c.hi95, c.supported ? 1 : 0, r.method.c_str(), r.rms_log10,
+                       c.sigma, c.lo68, c.hi68, c.lo95, c.hi95, c.supported ? 1 : 0, r.method.c_str(), r.quality.c_str(), r.rms_log10,
                        r.chi2_dof, err.c_str());
         }
       }
@@ -439,6 +441,8 @@ int main(int argc, char** argv) {
 
     // Summary: per class run (class@duration), per term, then all classes.
     std::array<Cell, kNumTerms> total;
+    std::array<Cell, kNumTerms> answered;  // axes whose verdict is not bad: an unbounded interval covers trivially
+    int bad_axes = 0;
     std::printf("# coverage of the truth by [lo68,hi68] / [lo95,hi95] (unsupported terms too: usually [0, hi]), "
                 "each ± its binomial standard error; bias = median(value/truth - 1) over supported terms\n");
     std::printf("# cov = all cases with truth > 0 (n); sup = supported (ns); ub = unsupported, upper bound (nu); "
@@ -462,8 +466,12 @@ int main(int argc, char** argv) {
         ++methods[r.method];
         rms.push_back(r.rms_log10);
         chi.push_back(r.chi2_dof);
-        for (int t = 0; t < kNumTerms; ++t)
+        const bool bad = r.quality == "bad";
+        bad_axes += bad;
+        for (int t = 0; t < kNumTerms; ++t) {
           cells[static_cast<size_t>(t)].add(truthOf(j.k.a, t), r.c[static_cast<size_t>(t)]);
+          if (!bad) answered[static_cast<size_t>(t)].add(truthOf(j.k.a, t), r.c[static_cast<size_t>(t)]);
+        }
       }
       errors += err;
       std::string m;
@@ -480,6 +488,9 @@ int main(int argc, char** argv) {
     std::printf("\n## all classes (seeds %d-%d, %s)\n", s0, s1, set);
     printHeader();
     for (int t = 0; t < kNumTerms; ++t) printRow("all", t, total[static_cast<size_t>(t)]);
+    std::printf("\n## all classes, axes with an answer (verdict not bad; %d bad axes left out)\n", bad_axes);
+    printHeader();
+    for (int t = 0; t < kNumTerms; ++t) printRow("answered", t, answered[static_cast<size_t>(t)]);
     std::printf("\n# %zu axis-runs (%d failed) in %.1f s wall on %d thread(s)\n", runs.size(), errors, elapsed,
                 threads);
     return 0;
