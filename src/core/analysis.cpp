@@ -314,7 +314,13 @@ AxisAnalysis AxisStages::finish() {
     auto bad = [](double rms, double chi2) {
       return !(rms <= quality_limits::kBadRmsLog10) || !(chi2 <= quality_limits::kBadChi2Dof);
     };
-    if (bad(a.final_error.rms_log10, a.final_error.chi2_dof) && den.ok && !bad(den.rms_log10, den.chi2_dof)) {
+    // A pulse count whose pattern repeats too slowly for the sawtooth test (a counter at ~0 rate: the angle wanders
+    // across a few quanta in the record, and its rounding error is neither white nor a sawtooth): nothing explains
+    // the raw misfit, which then stands.
+    const QuantizedOutput& qo = a.quantized;
+    const bool slow_counter = qo.quantized && qo.two_level_fraction >= 0.9 && !qo.sawtooth && !(qo.line_to_floor > 0);
+    if (bad(a.final_error.rms_log10, a.final_error.chi2_dof) && den.ok && !bad(den.rms_log10, den.chi2_dof) &&
+        !slow_counter) {
       // The raw Allan curve is not the IEEE model's while the denoised signal is: the removed part is not white
       // quantization (an undithered pulse count at constant rate is a sawtooth). The split's answer is judged by
       // its fit of the denoised signal; the axis is bad only when both fit badly.
@@ -325,6 +331,14 @@ AxisAnalysis AxisStages::finish() {
                     a.final_error.rms_log10, a.final_error.chi2_dof);
       a.notes.push_back(note);
       a.final_error = {den.rms_log10, den.chi2_dof, den.n_rms};
+    } else if (bad(a.final_error.rms_log10, a.final_error.chi2_dof) && slow_counter) {
+      char note[300];
+      std::snprintf(note, sizeof note,
+                    "the raw Allan curve misfits the split's model and the output is a pulse count that changes too "
+                    "rarely for a sawtooth (mean count %.3g per sample): its rounding error is neither white nor a "
+                    "sawtooth, so Q and N cannot be separated on this record",
+                    qo.mean_count);
+      a.notes.push_back(note);
     }
   } else if (a.has_check && !a.check.effects.empty()) {
     a.coefficients = a.check.fit_after.terms_corrected;
