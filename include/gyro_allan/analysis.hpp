@@ -7,6 +7,7 @@
 
 #include "gyro_allan/allan.hpp"
 #include "gyro_allan/gmwm.hpp"
+#include "gyro_allan/pulse_times.hpp"
 #include "gyro_allan/model_check.hpp"
 #include "gyro_allan/noise_model.hpp"
 #include "gyro_allan/quality.hpp"
@@ -84,6 +85,12 @@ struct AxisAnalysis {
   QualityVerdict quality;           ///< verdict on `coefficients` (quality.hpp), set by finish()
   bool has_gmwm = false;            ///< AnalysisOptions::gmwm
   GmwmAxis gmwm;
+  /// A pulse counter without a sawtooth (auto): the pulse-time reconstruction (pulse_times.hpp, rate vector freed),
+  /// its oadev from tau_min_s up and the IEEE fit of it. Chosen ("pulse_times") when the other methods fit badly.
+  bool has_pulse_times = false;
+  PulseTimes pulse_times;
+  DeviationCurve pulse_oadev;
+  FitResult pulse_fit;
 };
 
 /// Rate samples [rad/s] of one gap-free segment of angle samples, in place: an accumulated angle theta (n points)
@@ -116,6 +123,7 @@ class AxisStages {
 
  private:
   void removeSegmentSpikes();
+  void pulseTimes();
   std::string axis_;
   std::vector<std::vector<double>> segments_;
   double tau0_;

@@ -1,6 +1,7 @@
 // One-axis analysis pipeline: validate, compute deviations over gap-free segments, fit the IEEE 952 model.
 #include "gyro_allan/analysis.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <exception>
@@ -13,6 +14,12 @@ namespace {
 // chi2/dof ~ 1 +- 0.4) and large in size: misfits from sawtooth quantization reach chi2/dof 1e3.
 constexpr double kGrossMisfitP = 1e-6;
 constexpr double kGrossMisfitChi2Dof = 10.0;
+// pulse_times (slow undithered counters): the linear interpolation between lattice crossings smooths the angle's
+// random walk, so its N comes out low by ~2 % in 1-2 h records and ~9 % in 10 min ones (median; coverage_study seeds
+// 6001-6020, classes rlg_saw1/rlg_saw2). N's sigma gets this relative systematic allowance in quadrature, and the
+// method is used only when the result is that precise.
+constexpr double kPulseTimesSystematic = 0.03;
+constexpr double kPulseTimesMaxRelSigma = 0.10;
 }  // namespace
 
 double conventionalFactor(int term) {
@@ -237,12 +244,41 @@ void AxisStages::check() {
   }
 }
 
+// A pulse counter whose count pattern shows no sawtooth (a slow undithered counter, e.g. a ring-laser gyro at
+// 0.5-2 deg/h): the angle is exact at each lattice crossing, so the IEEE fit runs on the angle interpolated between
+// crossings, from a few crossing intervals up (its Q term absorbs the interpolation error; Q itself is the lattice's
+// pulse weight / sqrt(12), the white-quantization equivalent the other methods report).
+void AxisStages::pulseTimes() {
+  AxisAnalysis& a = a_;
+  const QuantizedOutput& q = a.quantized;
+  if (options_.method != "auto" || !q.quantized || q.two_level_fraction < 0.9 || q.sawtooth) return;
+  a.has_pulse_times = true;
+  a.pulse_times = reconstructPulseTimes(segments_[longest_], tau0_, q);
+  if (!a.pulse_times.ok) return;
+  DeviationCurve c = computeDeviation("oadev", {a.pulse_times.rate}, InputKind::Rate, tau0_, options_.deviation);
+  a.pulse_times.rate.clear();
+  a.pulse_times.rate.shrink_to_fit();
+  enforceRedderWithTau(&c, options_.deviation.confidence);
+  std::vector<DeviationPoint> kept;
+  for (const auto& pt : c.points)
+    if (pt.tau >= a.pulse_times.tau_min_s) kept.push_back(pt);
+  c.points = kept;
+  if (c.points.size() < 6) {
+    a.pulse_times.ok = false;
+    a.pulse_times.message += "; too few Allan points above tau_min";
+    return;
+  }
+  a.pulse_fit = fitWithModelEdf(&c, options_.fit, options_.deviation.confidence);
+  a.pulse_oadev = c;
+}
+
 AxisAnalysis AxisStages::finish() {
   if (!prepared_) throw std::logic_error("AxisStages::finish before prepare");
   if (options_.gmwm && longest_ < segments_.size()) {  // GMWM stage (gmwm.hpp), before the samples are freed
     a_.gmwm = gmwmStage(segments_[longest_], tau0_, options_.gmwm_options);
     a_.has_gmwm = true;
   }
+  if (longest_ < segments_.size()) pulseTimes();
   std::vector<std::vector<double>>().swap(segments_);  // the samples are not needed any more
   const std::string& axis = axis_;
   const AnalysisOptions& options = options_;
@@ -348,6 +384,50 @@ AxisAnalysis AxisStages::finish() {
     a.coefficients = a.fit.terms_corrected;
     a.final_model_var = a.fit.model_var;
     a.final_error = {a.fit.rms_log10, a.fit.chi2_dof, a.fit.n_rms};
+  }
+  // The pulse-time N with its interval widened by the interpolation's systematic error (kPulseTimesSystematic).
+  Coefficient pulse_n = a.pulse_fit.terms_corrected[kAngleRandomWalk];
+  if (a.has_pulse_times && a.pulse_times.ok && a.pulse_fit.ok && pulse_n.supported) {
+    pulse_n.sigma = std::hypot(pulse_n.sigma, kPulseTimesSystematic * pulse_n.value);
+    pulse_n.lo68 = std::max(0.0, pulse_n.value - pulse_n.sigma), pulse_n.hi68 = pulse_n.value + pulse_n.sigma;
+    pulse_n.lo95 = std::max(0.0, pulse_n.value - 1.96 * pulse_n.sigma), pulse_n.hi95 = pulse_n.value + 1.96 * pulse_n.sigma;
+  }
+  if (a.has_pulse_times && a.pulse_times.ok && a.pulse_fit.ok && pulse_n.supported &&
+      pulse_n.sigma <= kPulseTimesMaxRelSigma * pulse_n.value &&
+      !(a.final_error.rms_log10 <= quality_limits::kBadRmsLog10 && a.final_error.chi2_dof <= quality_limits::kBadChi2Dof) &&
+      a.pulse_fit.rms_log10 <= quality_limits::kBadRmsLog10 && a.pulse_fit.chi2_dof <= quality_limits::kBadChi2Dof) {
+    // auto: the chosen method fits badly, the pulse-time reconstruction (pulseTimes) does not.
+    char buf[320];
+    std::snprintf(buf, sizeof buf,
+                  "a pulse count without a sawtooth; %s fits badly (rms_log10 %.3g, chi2/dof %.3g) while the angle "
+                  "reconstructed at the lattice crossings fits (rms_log10 %.3g, chi2/dof %.3g)",
+                  a.method.c_str(), a.final_error.rms_log10, a.final_error.chi2_dof, a.pulse_fit.rms_log10,
+                  a.pulse_fit.chi2_dof);
+    a.method = "pulse_times";
+    a.method_reason = buf;
+    a.coefficients = a.pulse_fit.terms_corrected;
+    a.coefficients[kAngleRandomWalk] = pulse_n;
+    // Q: the lattice's pulse weight as white quantization, q / sqrt(12) (the lattice is refined by least squares
+    // over the whole record; its relative error is far below 1e-6, used as the interval).
+    const double qv = a.quantized.pulse_weight / std::sqrt(12.0);
+    Coefficient& cq = a.coefficients[kQuantization];
+    cq.value = qv;
+    cq.sigma = 1e-6 * qv;
+    cq.supported = true;
+    cq.lo68 = qv - cq.sigma, cq.hi68 = qv + cq.sigma, cq.lo95 = qv - 2 * cq.sigma, cq.hi95 = qv + 2 * cq.sigma;
+    FitResult shown = a.pulse_fit;
+    shown.terms[kQuantization] = cq;
+    for (size_t i = 0; i < a.oadev.points.size(); ++i) a.final_model_var[i] = modelVariance(shown, a.oadev.points[i].tau);
+    a.final_error = {a.pulse_fit.rms_log10, a.pulse_fit.chi2_dof, a.pulse_fit.n_rms};
+    a.notes.push_back("pulse_times: " + a.pulse_times.message +
+                      "; fit error is that of the reconstructed angle's Allan curve; Q is the pulse weight / sqrt(12)");
+  } else if (a.has_pulse_times && !a.pulse_times.ok) {
+    a.notes.push_back("pulse_times not used: " + a.pulse_times.message);
+  } else if (a.has_pulse_times && a.pulse_fit.ok && pulse_n.supported && pulse_n.sigma > kPulseTimesMaxRelSigma * pulse_n.value) {
+    char buf[200];
+    std::snprintf(buf, sizeof buf, "pulse_times not used: its N %.4g has a relative sigma of %.0f %% (> %.0f %%)",
+                  pulse_n.value, 100 * pulse_n.sigma / pulse_n.value, 100 * kPulseTimesMaxRelSigma);
+    a.notes.push_back(buf);
   }
   if (a.has_gmwm) gmwmCompare(&a.gmwm, a.oadev, a.fit.model_var, a.final_model_var);  // closed loop vs IEEE fits
   a.quality = assessQuality(a);

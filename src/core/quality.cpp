@@ -112,7 +112,7 @@ QualityVerdict assessQuality(const AxisAnalysis& a) {
   ctx.spikes = a.spikes_checked ? a.spikes.count : 0;
   for (const auto& n : a.notes) ctx.static_stretch = ctx.static_stretch || n.find(kStaticStretchNote) != std::string::npos;
   const bool split_ok = a.has_split && a.split.ok;
-  if (a.fit.ok && split_ok) {
+  if (a.fit.ok && split_ok && a.method != "pulse_times") {  // pulse_times: neither method's N is the answer
     ctx.compare_methods = true;
     ctx.joint_fit_n = a.fit.terms[kAngleRandomWalk];
     ctx.wavelet_split_n = a.split.terms[kAngleRandomWalk];
@@ -122,6 +122,9 @@ QualityVerdict assessQuality(const AxisAnalysis& a) {
   if (a.method == "wavelet_split") {
     ok = split_ok;
     failure = a.has_split ? a.split.message : "wavelet split not run";
+  } else if (a.method == "pulse_times") {
+    ok = a.pulse_times.ok && a.pulse_fit.ok;
+    failure = a.pulse_times.ok ? a.pulse_fit.message : a.pulse_times.message;
   }
   return judge(ok, failure, a.coefficients, a.final_error.rms_log10, a.final_error.chi2_dof, a.final_error.n_rms, ctx);
 }

@@ -380,6 +380,20 @@ YAML::Node buildReport(const ReportMeta& meta, const std::vector<AxisAnalysis>& 
     jf["fit"] = fitNode(a.fit);
     n["methods"]["joint_fit"] = jf;
     if (a.has_split) n["methods"]["wavelet_split"] = splitNode(a.split);
+    if (a.has_pulse_times) {  // slow undithered counter (pulse_times.hpp)
+      YAML::Node pt;
+      pt["ok"] = a.pulse_times.ok;
+      pt["message"] = str(a.pulse_times.message);
+      pt["crossings"] = a.pulse_times.crossings;
+      pt["backward_crossings"] = a.pulse_times.back;
+      pt["mean_interval_s"] = num(a.pulse_times.mean_interval_s);
+      pt["tau_min_s"] = num(a.pulse_times.tau_min_s);
+      if (a.pulse_times.ok && a.pulse_fit.ok) {
+        pt["coefficients"] = coefficientsNode(a.pulse_fit);
+        pt["fit"] = fitNode(a.pulse_fit);
+      }
+      n["methods"]["pulse_times"] = pt;
+    }
     if (a.has_check) n["model_check"] = checkNode(a.check);
     if (a.spikes_checked)
       n["spikes"] = spikesNode(a, conventionalFactor, conventionalUnit, noiseTermUnit, "rad_s");

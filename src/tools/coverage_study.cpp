@@ -30,7 +30,7 @@
 // The rate is lowered to max-samples/duration when above it (default 720000: a 4 h record runs at 50 Hz).
 // Each (class, duration, seed) simulates with its own stream: simulateAxis seed = seed + (FNV-1a hash of
 // "class@duration" << 32), so classes and durations are independent and a run is reproducible from its CSV line.
-// Measured (2 threads on a 2-core machine shared with other jobs, load 2.5-4): the default (seeds 1-20, 11 classes,
+// Measured (2 threads on a 2-core machine shared with other jobs, load 2.5-4): the default (seeds 1-20, 11 classes before rlg_saw1/rlg_saw2 were added in session 7,
 // 220 runs) took 83-132 s wall; --durations 600,3600,14400 (660 runs) 194 s. Results do not depend on --threads.
 //
 // Per run (AnalysisOptions defaults except what the command line sets; one segment = the whole record) and term t
@@ -105,6 +105,8 @@ std::vector<Class> classes() {
   c.push_back(make("fog", 100, 2, 0, 0.005, 0.05, 0));
   c.push_back(make("rlg_dither", 100, 2, 0.35, 0.002, 0.005, 0, true));
   c.push_back(make("rlg_saw0", 100, 2, 0.35, 0.002, 0.005, 0, false, 0));
+  c.push_back(make("rlg_saw1", 100, 2, 0.35, 0.002, 0.005, 0, false, 1));  // since session 7
+  c.push_back(make("rlg_saw2", 100, 2, 0.35, 0.002, 0.005, 0, false, 2));  // since session 7
   c.push_back(make("rlg_saw5", 100, 2, 0.35, 0.002, 0.005, 0, false, 5));
   c.push_back(make("rlg_saw10", 100, 2, 0.35, 0.002, 0.005, 0, false, 10));
   c.push_back(make("rlg_saw15", 100, 2, 0.35, 0.002, 0.005, 0, false, 15));
