@@ -10,6 +10,7 @@
 #include <string>
 
 #include <diagnostic_msgs/DiagnosticArray.h>
+#include <dynamic_reconfigure/Reconfigure.h>
 #include <gyro_allan/NoiseModel.h>
 #include <ros/ros.h>
 #include <rosbag/bag.h>
@@ -309,6 +310,35 @@ TEST(NodeletNoiseModel, SameAsAnalyzeBagLatchedSaved) {
   b << yaml["axes"];
   EXPECT_EQ(std::string(a.c_str()), std::string(b.c_str()));
   EXPECT_EQ(saved_yaml["sources"][0].as<std::string>(), "live topic /imu");
+
+  // dynamic_reconfigure: a filter rate turns the GMWM stage on even when gmwm is asked off (as analyze_bag
+  // --filter-rate implies --method gmwm); with both off the next window publishes no ~noise_model.
+  auto reconfigure = [](bool gmwm, double filter_rate) {
+    dynamic_reconfigure::Reconfigure rc;
+    dynamic_reconfigure::BoolParameter b;
+    b.name = "gmwm";
+    b.value = gmwm;
+    rc.request.config.bools.push_back(b);
+    dynamic_reconfigure::DoubleParameter d;
+    d.name = "filter_rate";
+    d.value = filter_rate;
+    rc.request.config.doubles.push_back(d);
+    EXPECT_TRUE(ros::service::call("/" + kNode + "/set_parameters", rc));
+    for (const auto& x : rc.response.config.bools)
+      if (x.name == "gmwm") return static_cast<bool>(x.value);
+    ADD_FAILURE() << "no gmwm in the reconfigure response";
+    return false;
+  };
+  EXPECT_TRUE(reconfigure(false, 50.0));
+  EXPECT_TRUE(waitFor(5.0, [&] { return h.value("filter rate (Hz, 0 = data rate only)") == 50.0; }));
+  EXPECT_FALSE(reconfigure(false, 0.0));
+  EXPECT_TRUE(waitFor(5.0, [&] { return h.summary("noise model") == "GMWM off (~gmwm)"; })) << h.summary("noise model");
+  const int models_before = h.models();
+  const double analyses = h.value("analyses (total)");
+  ASSERT_TRUE(Probe::call("analyze").success);
+  EXPECT_TRUE(waitFor(60.0, [&] { return h.value("analyses (total)") == analyses + 1; }));
+  ros::WallDuration(0.5).sleep();
+  EXPECT_EQ(h.models(), models_before) << "~noise_model published with gmwm off";
 }
 
 int main(int argc, char** argv) {

@@ -654,9 +654,9 @@ void diagFit(const DiagState& s, const AnalyzerParams& p, diagnostic_updater::Di
 
 void diagNoiseModel(const DiagState& s, const AnalyzerParams& p, diagnostic_updater::DiagnosticStatusWrapper& stat) {
   stat.add("filter rate (Hz, 0 = data rate only)", p.filter_rate);
-  if (!s.have_noise_model)
-    return stat.summary(diagnostic_msgs::DiagnosticStatus::OK, p.online.pipeline.analysis.gmwm
-                                                                   ? "no noise model yet" : "GMWM off (~gmwm)");
+  if (!p.online.pipeline.analysis.gmwm)  // (~noise_model keeps its last message latched)
+    return stat.summary(diagnostic_msgs::DiagnosticStatus::OK, "GMWM off (~gmwm)");
+  if (!s.have_noise_model) return stat.summary(diagnostic_msgs::DiagnosticStatus::OK, "no noise model yet");
   std::string summary, failed;
   for (const AxisNoiseModel& a : s.last_noise_model.axes) {
     stat.add("model " + a.axis, a.ok ? a.model : "none: " + a.error);
