@@ -91,7 +91,7 @@ TEST(NodeletBadParams, ComesUpWithDocumentedReplacements) {
   EXPECT_NE(all.find("~windw_s is unknown"), std::string::npos) << all;
   EXPECT_NE(all.find("~model_check must be true or false"), std::string::npos) << all;
   EXPECT_NE(all.find("~gmwm must be true or false"), std::string::npos) << all;
-  EXPECT_NE(all.find("~filter_rate must be in [0, 1e9] Hz"), std::string::npos) << all;
+  EXPECT_NE(all.find("~filter_rate must be in [0, 1e6] Hz"), std::string::npos) << all;
   EXPECT_EQ(p.value("filter rate (Hz, 0 = data rate only)"), 0.0);  // filter_rate -20 -> 0 (data rate only)
   EXPECT_NE(p.text("noise model").find("GMWM off (~gmwm)"), std::string::npos);  // gmwm "on" -> default false
   // ... and it analyses normally: the 6 s window on request (~analyze), at the rate from the stamps.

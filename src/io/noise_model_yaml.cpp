@@ -62,6 +62,11 @@ YAML::Node agreementNode(const CurveAgreement& c) {
 
 }  // namespace
 
+ReportedNoiseModel axisNoiseModel(const AxisAnalysis& a, double filter_rate_hz) {
+  const Coefficient& bi = a.fit.terms_corrected[kBiasInstability];
+  return reportedNoiseModel(a.gmwm, filter_rate_hz, bi.value, bi.sigma);
+}
+
 YAML::Node noiseModelNode(const std::vector<AxisAnalysis>& axes, double filter_rate_hz,
                           const std::vector<std::string>& sources) {
   YAML::Node root;
@@ -76,9 +81,7 @@ YAML::Node noiseModelNode(const std::vector<AxisAnalysis>& axes, double filter_r
   YAML::Node ax;
   for (const auto& a : axes) {
     if (!a.has_gmwm) continue;
-    const ReportedNoiseModel r = reportedNoiseModel(a.gmwm, filter_rate_hz,
-                                                    a.fit.terms_corrected[kBiasInstability].value,
-                                                    a.fit.terms_corrected[kBiasInstability].sigma);
+    const ReportedNoiseModel r = axisNoiseModel(a, filter_rate_hz);
     YAML::Node n;
     if (!r.ok) {
       n["error"] = r.error;

@@ -1,7 +1,6 @@
 // gyro_allan/AnalyzerNodelet: IMU (or angle) and temperature messages into OnlineAnalyzer; every hop the window is
 // analysed on a worker thread by the pipeline analyze_bag uses; ~noise (latched), ~noise_model (latched, with ~gmwm),
-// ~allan/*, ~plot, services,
-// dynamic_reconfigure and diagnostics out. No analysis here: see online.hpp and pipeline.hpp.
+// ~allan/*, ~plot, services, dynamic_reconfigure and diagnostics out. No analysis here: see online.hpp and pipeline.hpp.
 #include "analyzer_nodelet.hpp"
 
 #include <sys/stat.h>
@@ -11,8 +10,8 @@
 
 #include <pluginlib/class_list_macros.hpp>
 
-#include "gyro_allan/io/plot_image.hpp"  // plotImageAvailable
 #include "gyro_allan/io/noise_model_yaml.hpp"
+#include "gyro_allan/io/plot_image.hpp"  // plotImageAvailable
 #include "gyro_allan/io/report.hpp"
 
 namespace gyro_allan {

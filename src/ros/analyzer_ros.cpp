@@ -8,6 +8,7 @@
 #include <map>
 #include <set>
 
+#include "gyro_allan/io/noise_model_yaml.hpp"
 #include "gyro_allan/io/plot_image.hpp"
 #include "gyro_allan/quality.hpp"
 
@@ -179,10 +180,9 @@ ModelAgreement toMsg(const CurveAgreement& c) {
   return m;
 }
 
-/// One axis of ~noise_model: a copy of reportedNoiseModel (gmwm.hpp), the numbers noise_model.yaml prints.
+/// One axis of ~noise_model: a copy of axisNoiseModel (io/noise_model_yaml.hpp), the numbers noise_model.yaml prints.
 AxisNoiseModel toAxisNoiseModel(const AxisAnalysis& a, double filter_rate_hz) {
-  const Coefficient& bi = a.fit.terms_corrected[kBiasInstability];
-  const ReportedNoiseModel r = reportedNoiseModel(a.gmwm, filter_rate_hz, bi.value, bi.sigma);
+  const ReportedNoiseModel r = axisNoiseModel(a, filter_rate_hz);
   AxisNoiseModel m;
   m.axis = a.axis;
   m.ok = r.ok;
@@ -301,8 +301,8 @@ AnalyzerParams loadAnalyzerParams(const ros::NodeHandle& pnh, std::vector<std::s
   r.get("model_check", &ao.model_check);
   r.get("gmwm", &ao.gmwm);
   r.get("filter_rate", &p.filter_rate);
-  if (!(p.filter_rate >= 0) || p.filter_rate > 1e9)
-    invalid("filter_rate", "must be in [0, 1e9] Hz", "0 (data rate only)"), p.filter_rate = 0;
+  if (!(p.filter_rate >= 0) || p.filter_rate > 1e6)
+    invalid("filter_rate", "must be in [0, 1e6] Hz", "0 (data rate only)"), p.filter_rate = 0;
   if (p.filter_rate > 0) ao.gmwm = true;  // as analyze_bag --filter-rate implies --method gmwm
   r.get("rest_check", &o.pipeline.rest_check);
   r.get("spike_z", &p.spike_z);
@@ -375,7 +375,7 @@ std::string applyConfig(AnalyzerConfig& c, AnalyzerParams* p) {
   if (n.method != "auto" && n.method != "joint_fit" && n.method != "wavelet_split") return "method must be auto, joint_fit or wavelet_split";
   if (n.method == "wavelet_split" && !c.wavelet_split) return "method wavelet_split needs wavelet_split";
   if (!(n.rms_log10_warn > 0) || n.rms_log10_error < n.rms_log10_warn) return "rms_log10_warn/error must be 0 < warn <= error";
-  if (!(n.filter_rate >= 0) || n.filter_rate > 1e9) return "filter_rate must be in [0, 1e9] Hz";
+  if (!(n.filter_rate >= 0) || n.filter_rate > 1e6) return "filter_rate must be in [0, 1e6] Hz";
   try {
     n.online.validate();
   } catch (const std::exception& e) {

@@ -56,7 +56,7 @@ AnalyzerConfig toConfig(const AnalyzerParams& p);
 NoiseReport toNoiseReport(const OnlineResult& r, const AnalyzerParams& p, const std::string& frame_id,
                           double mean_temperature);
 /// ~noise_model message of one analysed window: the GMWM model of the gyro axes analysed with it (AnalysisOptions::gmwm),
-/// copied from reportedNoiseModel (gmwm.hpp), the source of noise_model.yaml too. sources as in noise_model.yaml.
+/// copied from axisNoiseModel (io/noise_model_yaml.hpp), the source of noise_model.yaml too; sources as there.
 NoiseModel toNoiseModel(const OnlineResult& r, const AnalyzerParams& p, const std::string& frame_id,
                         const std::vector<std::string>& sources);
 /// True when some gyro axis of the result carries a GMWM stage (then ~noise_model and ~save's noise_model.yaml).
