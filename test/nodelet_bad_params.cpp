@@ -84,11 +84,16 @@ TEST(NodeletBadParams, ComesUpWithDocumentedReplacements) {
   // Every problem named: invalid values, retired names, a misspelt name, a mistyped value.
   const std::string all = p.text("parameters");
   for (const char* name : {"~window_s", "~hop_s", "~expected_rate_hz", "~gap_factor", "~tau_grid", "~input",
-                           "~confidence", "~learn_samples", "~saturation_limit", "~windw_s", "~model_check"})
+                           "~confidence", "~learn_samples", "~saturation_limit", "~windw_s", "~model_check", "~gmwm",
+                           "~filter_rate"})
     EXPECT_NE(all.find(name), std::string::npos) << name << " not reported in: " << all;
   EXPECT_NE(all.find("~learn_samples is no longer used"), std::string::npos) << all;
   EXPECT_NE(all.find("~windw_s is unknown"), std::string::npos) << all;
   EXPECT_NE(all.find("~model_check must be true or false"), std::string::npos) << all;
+  EXPECT_NE(all.find("~gmwm must be true or false"), std::string::npos) << all;
+  EXPECT_NE(all.find("~filter_rate must be in [0, 1e6] Hz"), std::string::npos) << all;
+  EXPECT_EQ(p.value("filter rate (Hz, 0 = data rate only)"), 0.0);  // filter_rate -20 -> 0 (data rate only)
+  EXPECT_NE(p.text("noise model").find("GMWM off (~gmwm)"), std::string::npos);  // gmwm "on" -> default false
   // ... and it analyses normally: the 6 s window on request (~analyze), at the rate from the stamps.
   std_srvs::Trigger t;
   ASSERT_TRUE(ros::service::call("/badparam_analyzer/analyze", t));

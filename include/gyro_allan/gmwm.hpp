@@ -196,4 +196,53 @@ GmwmAxis gmwmStage(const std::vector<double>& rate, double tau0, const GmwmOptio
 void gmwmCompare(GmwmAxis* g, const DeviationCurve& oadev, const std::vector<double>& ieee_model_var,
                  const std::vector<double>& final_model_var = {});
 
+// ==== The reported noise model (issue #16) ==========================================================================
+// Everything noise_model.yaml and the nodelet's ~noise_model message report for one axis, computed here once: both
+// writers only copy these fields (src/io/noise_model_yaml.cpp, src/ros/analyzer_ros.cpp).
+
+/// One discrete model of the report: discretize() at dt plus the measurement variance a filter uses.
+struct ReportedDiscreteModel {
+  double dt = 0;                     ///< [s]
+  double rate_hz = 0;                ///< 1 / dt [Hz]
+  DiscreteNoiseModel model;          ///< Phi, Qd, states, folded, white_variance, quantization_variance
+  double measurement_variance = 0;   ///< white_variance + quantization_variance [(rad/s)^2]
+};
+
+/// One candidate of the selection as reported.
+struct ReportedCandidate {
+  std::string model;                 ///< e.g. "WN+2GM"
+  bool ok = false;
+  double criterion = 0, chi2 = 0;
+  int dof = 0;
+  bool identified = false;
+  std::string unidentified;          ///< terms not supported (empty when identified)
+};
+
+/// The noise model of one axis as reported (noise_model.yaml "axes.<axis>", README "noise_model.yaml").
+struct ReportedNoiseModel {
+  bool ok = false;
+  std::string error;                 ///< why there is no model (the GMWM stage's message); the rest is empty
+  std::string model;                 ///< chosen model name
+  std::string selection;             ///< the selection rule in words (with the penalty per parameter)
+  std::vector<ReportedCandidate> candidates;  ///< every candidate, in candidate order
+  GmwmFit fit;                       ///< the chosen fit: continuous N, Q, K, R, gm (each with its 1-sigma), chi2, dof, chi2_p
+  double segment_s = 0;              ///< length of the analysed segment [s]
+  double data_rate_hz = 0;           ///< 1 / tau0 [Hz]
+  std::vector<ReportedDiscreteModel> discrete;  ///< [0] at the data rate, [1] at the filter rate when one was asked
+  // Flicker approximation: the GM terms stand in for the IEEE bias instability over the closed loop's tau range.
+  int gauss_markov_terms = 0;
+  double tau_min_s = 0, tau_max_s = 0;            ///< tau range of the closed-loop comparison [s]
+  double ieee_bias_instability = 0, ieee_bias_instability_sigma = 0;  ///< the IEEE fit's B (selection-corrected) [rad/s]
+  double worst_avar_ratio_vs_ieee_model = 1;      ///< max AVAR ratio GMWM / IEEE model (or inverse) over the range
+  double worst_avar_ratio_vs_data = 1;            ///< the GMWM model's worst ADEV ratio vs the data, squared
+  // Closed loop (gmwmCompare): each model's ADEV against the measured oadev.
+  CurveAgreement gmwm_model, ieee_model, final_model;
+  int wavelet_variance_points = 0, wavelet_variance_within_ci = 0;
+  double wavelet_variance_confidence = 0;
+};
+
+/// The reported model of one axis's GMWM stage. filter_rate_hz <= 0: only the data rate's discrete model.
+/// ieee_bi, ieee_bi_sigma: the IEEE fit's bias instability (AxisAnalysis::fit.terms_corrected) for the flicker part.
+ReportedNoiseModel reportedNoiseModel(const GmwmAxis& g, double filter_rate_hz, double ieee_bi, double ieee_bi_sigma);
+
 }  // namespace gyro_allan

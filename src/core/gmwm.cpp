@@ -6,6 +6,7 @@
 #include <cctype>
 #include <functional>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <stdexcept>
 
@@ -785,6 +786,60 @@ void gmwmCompare(GmwmAxis* g, const DeviationCurve& oadev, const std::vector<dou
     g->worst_avar_ratio_vs_ieee = std::max(g->worst_avar_ratio_vs_ieee, std::max(r, 1 / r));
   }
   g->compared = true;
+}
+
+// ==== The reported noise model (issue #16): one source for noise_model.yaml and ~noise_model ========================
+
+ReportedNoiseModel reportedNoiseModel(const GmwmAxis& g, double filter_rate_hz, double ieee_bi, double ieee_bi_sigma) {
+  ReportedNoiseModel r;
+  if (!g.ok) {
+    r.error = g.message;
+    return r;
+  }
+  r.ok = true;
+  r.fit = g.selection.chosen();
+  r.model = r.fit.model.name();
+  char sel[160];
+  std::snprintf(sel, sizeof sel, "smallest chi2 + %g x parameters among fits whose every term is supported (docs/gmwm.md)",
+                g.penalty_per_parameter);
+  r.selection = sel;
+  for (const GmwmFit& c : g.selection.fits) {
+    ReportedCandidate rc;
+    rc.model = c.model.name();
+    rc.ok = c.ok;
+    rc.criterion = c.criterion;
+    rc.chi2 = c.chi2;
+    rc.dof = c.dof;
+    rc.identified = c.identified;
+    rc.unidentified = c.unidentified;
+    r.candidates.push_back(rc);
+  }
+  r.segment_s = g.record_s;
+  r.data_rate_hz = 1.0 / g.tau0;
+  auto disc = [&r](double dt) {
+    ReportedDiscreteModel d;
+    d.dt = dt;
+    d.rate_hz = 1.0 / dt;
+    d.model = discretize(r.fit, dt);
+    d.measurement_variance = d.model.white_variance + d.model.quantization_variance;
+    return d;
+  };
+  r.discrete.push_back(disc(g.tau0));
+  if (filter_rate_hz > 0) r.discrete.push_back(disc(1.0 / filter_rate_hz));
+  r.gauss_markov_terms = static_cast<int>(r.fit.gm.size());
+  r.tau_min_s = g.gmwm_vs_data.tau_min;
+  r.tau_max_s = g.gmwm_vs_data.tau_max;
+  r.ieee_bias_instability = ieee_bi;
+  r.ieee_bias_instability_sigma = ieee_bi_sigma;
+  r.worst_avar_ratio_vs_ieee_model = g.worst_avar_ratio_vs_ieee;
+  r.worst_avar_ratio_vs_data = g.gmwm_vs_data.worst_ratio * g.gmwm_vs_data.worst_ratio;
+  r.gmwm_model = g.gmwm_vs_data;
+  r.ieee_model = g.ieee_vs_data;
+  r.final_model = g.final_vs_data;
+  r.wavelet_variance_points = g.wv_points;
+  r.wavelet_variance_within_ci = g.wv_within_ci;
+  r.wavelet_variance_confidence = g.wv.confidence;
+  return r;
 }
 
 }  // namespace gyro_allan

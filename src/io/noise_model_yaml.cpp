@@ -29,11 +29,11 @@ YAML::Node matrix(const Eigen::MatrixXd& m) {
   return rows;
 }
 
-YAML::Node discreteNode(const GmwmFit& f, double dt) {
-  const DiscreteNoiseModel d = discretize(f, dt);
+YAML::Node discreteNode(const ReportedDiscreteModel& r) {
+  const DiscreteNoiseModel& d = r.model;
   YAML::Node n;
-  n["dt"] = num(dt);
-  n["rate_hz"] = num(1.0 / dt);
+  n["dt"] = num(r.dt);
+  n["rate_hz"] = num(r.rate_hz);
   YAML::Node states(YAML::NodeType::Sequence);
   states.SetStyle(YAML::EmitterStyle::Flow);
   for (const auto& s : d.states) states.push_back(s);
@@ -44,7 +44,7 @@ YAML::Node discreteNode(const GmwmFit& f, double dt) {
   n["folded_into_white"] = folded;
   n["Phi"] = matrix(d.Phi);
   n["Qd"] = matrix(d.Qd);
-  n["measurement_variance"] = num(d.white_variance + d.quantization_variance);
+  n["measurement_variance"] = num(r.measurement_variance);
   n["white_variance"] = num(d.white_variance);
   n["quantization_variance"] = num(d.quantization_variance);
   return n;
@@ -62,6 +62,11 @@ YAML::Node agreementNode(const CurveAgreement& c) {
 
 }  // namespace
 
+ReportedNoiseModel axisNoiseModel(const AxisAnalysis& a, double filter_rate_hz) {
+  const Coefficient& bi = a.fit.terms_corrected[kBiasInstability];
+  return reportedNoiseModel(a.gmwm, filter_rate_hz, bi.value, bi.sigma);
+}
+
 YAML::Node noiseModelNode(const std::vector<AxisAnalysis>& axes, double filter_rate_hz,
                           const std::vector<std::string>& sources) {
   YAML::Node root;
@@ -76,23 +81,20 @@ YAML::Node noiseModelNode(const std::vector<AxisAnalysis>& axes, double filter_r
   YAML::Node ax;
   for (const auto& a : axes) {
     if (!a.has_gmwm) continue;
-    const GmwmAxis& g = a.gmwm;
+    const ReportedNoiseModel r = axisNoiseModel(a, filter_rate_hz);
     YAML::Node n;
-    if (!g.ok) {
-      n["error"] = g.message;
+    if (!r.ok) {
+      n["error"] = r.error;
       ax[a.axis] = n;
       continue;
     }
-    const GmwmFit& f = g.selection.chosen();
-    n["model"] = f.model.name();
-    char sel[160];
-    std::snprintf(sel, sizeof sel, "smallest chi2 + %g x parameters among fits whose every term is supported (docs/gmwm.md)",
-                  g.penalty_per_parameter);
-    n["selection"] = std::string(sel);
+    const GmwmFit& f = r.fit;
+    n["model"] = r.model;
+    n["selection"] = r.selection;
     YAML::Node cands(YAML::NodeType::Sequence);
-    for (const auto& c : g.selection.fits) {
+    for (const auto& c : r.candidates) {
       YAML::Node cn;
-      cn["model"] = c.model.name();
+      cn["model"] = c.model;
       cn["ok"] = c.ok;
       cn["criterion"] = num(c.criterion);
       cn["chi2"] = num(c.chi2);
@@ -105,8 +107,8 @@ YAML::Node noiseModelNode(const std::vector<AxisAnalysis>& axes, double filter_r
     n["chi2"] = num(f.chi2);
     n["dof"] = f.dof;
     n["chi2_p"] = num(f.chi2_p);
-    n["segment_s"] = num(g.record_s);
-    n["data_rate_hz"] = num(1.0 / g.tau0);
+    n["segment_s"] = num(r.segment_s);
+    n["data_rate_hz"] = num(r.data_rate_hz);
     YAML::Node c;
     c["angle_random_walk"] = valueSd(f.N, f.N_sd, "rad/sqrt(s)");
     if (f.model.quantization) c["quantization"] = valueSd(f.Q, f.Q_sd, "rad");
@@ -122,28 +124,26 @@ YAML::Node noiseModelNode(const std::vector<AxisAnalysis>& axes, double filter_r
     c["gauss_markov"] = gms;
     n["continuous"] = c;
     YAML::Node disc(YAML::NodeType::Sequence);
-    disc.push_back(discreteNode(f, g.tau0));
-    if (filter_rate_hz > 0) disc.push_back(discreteNode(f, 1.0 / filter_rate_hz));
+    for (const auto& d : r.discrete) disc.push_back(discreteNode(d));
     n["discrete"] = disc;
     YAML::Node fl;
-    fl["gauss_markov_terms"] = static_cast<int>(f.gm.size());
+    fl["gauss_markov_terms"] = r.gauss_markov_terms;
     YAML::Node range(YAML::NodeType::Sequence);
     range.SetStyle(YAML::EmitterStyle::Flow);
-    range.push_back(num(g.gmwm_vs_data.tau_min));
-    range.push_back(num(g.gmwm_vs_data.tau_max));
+    range.push_back(num(r.tau_min_s));
+    range.push_back(num(r.tau_max_s));
     fl["tau_range_s"] = range;
-    fl["ieee_bias_instability"] = valueSd(a.fit.terms_corrected[kBiasInstability].value,
-                                          a.fit.terms_corrected[kBiasInstability].sigma, "rad/s");
-    fl["worst_avar_ratio_vs_ieee_model"] = num(g.worst_avar_ratio_vs_ieee);
-    fl["worst_avar_ratio_vs_data"] = num(g.gmwm_vs_data.worst_ratio * g.gmwm_vs_data.worst_ratio);
+    fl["ieee_bias_instability"] = valueSd(r.ieee_bias_instability, r.ieee_bias_instability_sigma, "rad/s");
+    fl["worst_avar_ratio_vs_ieee_model"] = num(r.worst_avar_ratio_vs_ieee_model);
+    fl["worst_avar_ratio_vs_data"] = num(r.worst_avar_ratio_vs_data);
     n["flicker_approximation"] = fl;
     YAML::Node cl;
-    cl["gmwm_model"] = agreementNode(g.gmwm_vs_data);
-    cl["ieee_model"] = agreementNode(g.ieee_vs_data);
-    cl["final_model"] = agreementNode(g.final_vs_data);
-    cl["wavelet_variance_points"] = g.wv_points;
-    cl["wavelet_variance_within_ci"] = g.wv_within_ci;
-    cl["wavelet_variance_confidence"] = num(g.wv.confidence);
+    cl["gmwm_model"] = agreementNode(r.gmwm_model);
+    cl["ieee_model"] = agreementNode(r.ieee_model);
+    cl["final_model"] = agreementNode(r.final_model);
+    cl["wavelet_variance_points"] = r.wavelet_variance_points;
+    cl["wavelet_variance_within_ci"] = r.wavelet_variance_within_ci;
+    cl["wavelet_variance_confidence"] = num(r.wavelet_variance_confidence);
     n["closed_loop"] = cl;
     ax[a.axis] = n;
   }

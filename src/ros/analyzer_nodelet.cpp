@@ -1,6 +1,6 @@
 // gyro_allan/AnalyzerNodelet: IMU (or angle) and temperature messages into OnlineAnalyzer; every hop the window is
-// analysed on a worker thread by the pipeline analyze_bag uses; ~noise (latched), ~allan/*, ~plot, services,
-// dynamic_reconfigure and diagnostics out. No analysis here: see online.hpp and pipeline.hpp.
+// analysed on a worker thread by the pipeline analyze_bag uses; ~noise (latched), ~noise_model (latched, with ~gmwm),
+// ~allan/*, ~plot, services, dynamic_reconfigure and diagnostics out. No analysis here: see online.hpp and pipeline.hpp.
 #include "analyzer_nodelet.hpp"
 
 #include <sys/stat.h>
@@ -10,6 +10,7 @@
 
 #include <pluginlib/class_list_macros.hpp>
 
+#include "gyro_allan/io/noise_model_yaml.hpp"
 #include "gyro_allan/io/plot_image.hpp"  // plotImageAvailable
 #include "gyro_allan/io/report.hpp"
 
@@ -32,6 +33,7 @@ void AnalyzerNodelet::onInit() {
   oa_ = std::make_unique<OnlineAnalyzer>(p_.online);
 
   noise_pub_ = pnh.advertise<NoiseReport>("noise", 10, true);  // latched: a late subscriber gets the last result
+  noise_model_pub_ = pnh.advertise<NoiseModel>("noise_model", 10, true);  // latched; published while ~gmwm is on
   if (p_.publish_plot && plotImageAvailable()) plot_pub_ = pnh.advertise<sensor_msgs::Image>("plot", 1);
   const char* axes[3] = {"x", "y", "z"};
   if (p_.publish_curves)
@@ -49,6 +51,7 @@ void AnalyzerNodelet::onInit() {
   updater_->add("motion", [this](Wrapper& s) { diagMotion(diagState(), s); });
   updater_->add("parameters", [this](Wrapper& s) { diagParams(diagState(), s); });
   updater_->add("fit quality", [this](Wrapper& s) { diagFit(diagState(), params(), s); });
+  updater_->add("noise model", [this](Wrapper& s) { diagNoiseModel(diagState(), params(), s); });
   updater_->add("quality verdict", [this](Wrapper& s) { diagQuality(diagState(), s); });
   for (int t = 0; t < kNumTerms; ++t)
     updater_->add(kTermLabel[t], [this, t](Wrapper& s) { diagTerm(t, diagState(), params(), s); });
@@ -64,10 +67,11 @@ void AnalyzerNodelet::onInit() {
   if (p_.input != "angle") imu_sub_ = nh.subscribe("imu", q, &AnalyzerNodelet::imuCallback, this, hints);
   if (p_.input != "imu") angle_sub_ = nh.subscribe("angle", q, &AnalyzerNodelet::angleCallback, this, hints);
   temp_sub_ = nh.subscribe("temperature", 1000, &AnalyzerNodelet::temperatureCallback, this);
-  NODELET_INFO("gyro_allan analyzer: input %s, window %g s, hop %g s, method %s%s%s", p_.input.c_str(),
+  NODELET_INFO("gyro_allan analyzer: input %s, window %g s, hop %g s, method %s%s%s%s", p_.input.c_str(),
                p_.online.window_s, p_.online.hop_s, p_.method.c_str(),
                p_.online.pipeline.analysis.model_check ? " + model check" : "",
-               p_.online.pipeline.rest_check ? " + at-rest check" : "");
+               p_.online.pipeline.rest_check ? " + at-rest check" : "",
+               p_.online.pipeline.analysis.gmwm ? " + GMWM noise model" : "");
 }
 
 void AnalyzerNodelet::imuCallback(const sensor_msgs::Imu::ConstPtr& m) {
@@ -139,7 +143,7 @@ void AnalyzerNodelet::workerLoop() {
 }
 
 void AnalyzerNodelet::publish(const OnlineResult& r, double temperature) {
-  std::string frame;
+  std::string frame, topic;
   AnalyzerParams p;
   {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -148,10 +152,17 @@ void AnalyzerNodelet::publish(const OnlineResult& r, double temperature) {
     last_ = r;
     have_result_ = true;
     frame = frame_id_;
+    topic = topic_;
   }
   if (!r.ok) return;  // the window diagnostic says why
   const NoiseReport report = toNoiseReport(r, p, frame, temperature);
   noise_pub_.publish(report);
+  const bool with_model = hasNoiseModel(r.result);  // the window was analysed with ~gmwm on
+  NoiseModel model;
+  if (with_model) {
+    model = toNoiseModel(r, p, frame, liveReportMeta(p, topic).sources);
+    noise_model_pub_.publish(model);
+  }
   if (p.publish_curves)
     for (size_t a = 0; a < r.result.gyro.size() && a < 3; ++a) curve_pub_[a].publish(toCurve(r.result.gyro[a], report.header));
   if (plot_pub_ && plot_pub_.getNumSubscribers() > 0) {
@@ -165,6 +176,10 @@ void AnalyzerNodelet::publish(const OnlineResult& r, double temperature) {
   last_good_ = r;
   last_report_ = report;
   have_good_ = true;
+  if (with_model) {
+    last_noise_model_ = std::move(model);
+    have_noise_model_ = true;
+  }
 }
 
 bool AnalyzerNodelet::resetService(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
@@ -219,6 +234,10 @@ bool AnalyzerNodelet::saveService(std_srvs::Trigger::Request&, std_srvs::Trigger
                        "the window; at-rest check off (~rest_check): valid only if the sensor was static");
     res.success = true;
     res.message = "wrote " + dir + "/report.yaml, " + dir + "/allan.csv and " + dir + "/imu.yaml";
+    if (hasNoiseModel(r.result)) {  // the window was analysed with ~gmwm on: analyze_bag --method gmwm's file too
+      writeFileAtomic(dir + "/noise_model.yaml", noiseModelYaml(r.result.gyro, p.filter_rate, meta.sources));
+      res.message += " and " + dir + "/noise_model.yaml";
+    }
   } catch (const std::exception& e) {
     res.success = false;
     res.message = e.what();
@@ -238,9 +257,10 @@ void AnalyzerNodelet::reconfigure(AnalyzerConfig& c, uint32_t) {
   }
   p_ = p;
   oa_->setOptions(p_.online);
-  NODELET_INFO("gyro_allan analyzer: window %g s, hop %g s, method %s, wavelet split %s, model check %s, rest check %s",
+  NODELET_INFO("gyro_allan analyzer: window %g s, hop %g s, method %s, wavelet split %s, model check %s, rest check %s, "
+               "GMWM %s (filter rate %g Hz)",
                p_.online.window_s, p_.online.hop_s, p_.method.c_str(), c.wavelet_split ? "on" : "off",
-               c.model_check ? "on" : "off", c.rest_check ? "on" : "off");
+               c.model_check ? "on" : "off", c.rest_check ? "on" : "off", c.gmwm ? "on" : "off", c.filter_rate);
 }
 
 AnalyzerParams AnalyzerNodelet::params() {
@@ -274,6 +294,8 @@ DiagState AnalyzerNodelet::diagState() {
   }
   s.have_good = have_good_;
   s.last_report = last_report_;
+  s.have_noise_model = have_noise_model_;
+  s.last_noise_model = last_noise_model_;
   s.source = source_;
   s.other_source = other_source_;
   s.param_problems = param_problems_;

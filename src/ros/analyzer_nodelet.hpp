@@ -50,7 +50,7 @@ class AnalyzerNodelet : public nodelet::Nodelet {
   AnalyzerParams p_;
   std::unique_ptr<OnlineAnalyzer> oa_;
   ros::Subscriber imu_sub_, angle_sub_, temp_sub_;
-  ros::Publisher noise_pub_, plot_pub_;
+  ros::Publisher noise_pub_, noise_model_pub_, plot_pub_;
   std::array<ros::Publisher, 3> curve_pub_;
   ros::ServiceServer reset_srv_, save_srv_, analyze_srv_;
   std::unique_ptr<dynamic_reconfigure::Server<AnalyzerConfig>> dyn_;
@@ -73,6 +73,8 @@ class AnalyzerNodelet : public nodelet::Nodelet {
   OnlineResult last_;          ///< the last analysis
   OnlineResult last_good_;     ///< the last analysable one (~save writes it)
   NoiseReport last_report_;    ///< the last published ~noise
+  bool have_noise_model_ = false;
+  NoiseModel last_noise_model_;  ///< the last published ~noise_model
 };
 
 }  // namespace gyro_allan

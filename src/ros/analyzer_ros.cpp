@@ -8,6 +8,7 @@
 #include <map>
 #include <set>
 
+#include "gyro_allan/io/noise_model_yaml.hpp"
 #include "gyro_allan/io/plot_image.hpp"
 #include "gyro_allan/quality.hpp"
 
@@ -154,6 +155,99 @@ AxisNoiseFit toAxisMsg(const AxisAnalysis& a) {
   return m;
 }
 
+ValueSigma valueSigma(double value, double sigma) {
+  ValueSigma v;
+  v.value = value;
+  v.sigma = sigma;
+  return v;
+}
+
+std::vector<double> rowMajor(const Eigen::MatrixXd& x) {
+  std::vector<double> v;
+  v.reserve(static_cast<size_t>(x.size()));
+  for (int i = 0; i < x.rows(); ++i)
+    for (int j = 0; j < x.cols(); ++j) v.push_back(x(i, j));
+  return v;
+}
+
+ModelAgreement toMsg(const CurveAgreement& c) {
+  ModelAgreement m;
+  m.points = c.points;
+  m.within_ci = c.within_ci;
+  m.worst_adev_ratio = c.worst_ratio;
+  m.worst_at_tau_s = c.worst_tau;
+  m.rms_log10 = c.rms_log10;
+  return m;
+}
+
+/// One axis of ~noise_model: a copy of axisNoiseModel (io/noise_model_yaml.hpp), the numbers noise_model.yaml prints.
+AxisNoiseModel toAxisNoiseModel(const AxisAnalysis& a, double filter_rate_hz) {
+  const ReportedNoiseModel r = axisNoiseModel(a, filter_rate_hz);
+  AxisNoiseModel m;
+  m.axis = a.axis;
+  m.ok = r.ok;
+  m.error = r.error;
+  if (!r.ok) return m;
+  const GmwmFit& f = r.fit;
+  m.model = r.model;
+  m.selection = r.selection;
+  for (const ReportedCandidate& c : r.candidates) {
+    NoiseModelCandidate cm;
+    cm.model = c.model;
+    cm.ok = c.ok;
+    cm.criterion = c.criterion;
+    cm.chi2 = c.chi2;
+    cm.dof = c.dof;
+    cm.identified = c.identified;
+    cm.unidentified = c.unidentified;
+    m.candidates.push_back(cm);
+  }
+  m.chi2 = f.chi2;
+  m.dof = f.dof;
+  m.chi2_p = f.chi2_p;
+  m.segment_s = r.segment_s;
+  m.data_rate_hz = r.data_rate_hz;
+  m.continuous.angle_random_walk = valueSigma(f.N, f.N_sd);
+  if (f.model.quantization) m.continuous.quantization = valueSigma(f.Q, f.Q_sd);
+  if (f.model.random_walk) m.continuous.rate_random_walk = valueSigma(f.K, f.K_sd);
+  if (f.model.drift) m.continuous.rate_ramp = valueSigma(f.R, f.R_sd);
+  for (const GaussMarkovTerm& t : f.gm) {
+    GaussMarkovProcess g;
+    g.sigma = valueSigma(t.sigma, t.sigma_sd);
+    g.correlation_time = valueSigma(t.tc, t.tc_sd);
+    m.continuous.gauss_markov.push_back(g);
+  }
+  for (const ReportedDiscreteModel& d : r.discrete) {
+    DiscreteBiasModel dm;
+    dm.dt = d.dt;
+    dm.rate_hz = d.rate_hz;
+    dm.states = d.model.states;
+    dm.folded_into_white = d.model.folded;
+    dm.dimension = static_cast<uint32_t>(d.model.Phi.rows());
+    dm.Phi = rowMajor(d.model.Phi);
+    dm.Qd = rowMajor(d.model.Qd);
+    dm.measurement_variance = d.measurement_variance;
+    dm.white_variance = d.model.white_variance;
+    dm.quantization_variance = d.model.quantization_variance;
+    m.discrete.push_back(dm);
+  }
+  FlickerApproximation& fl = m.flicker_approximation;
+  fl.gauss_markov_terms = r.gauss_markov_terms;
+  fl.tau_range_s[0] = r.tau_min_s;
+  fl.tau_range_s[1] = r.tau_max_s;
+  fl.ieee_bias_instability = valueSigma(r.ieee_bias_instability, r.ieee_bias_instability_sigma);
+  fl.worst_avar_ratio_vs_ieee_model = r.worst_avar_ratio_vs_ieee_model;
+  fl.worst_avar_ratio_vs_data = r.worst_avar_ratio_vs_data;
+  ClosedLoopCheck& cl = m.closed_loop;
+  cl.gmwm_model = toMsg(r.gmwm_model);
+  cl.ieee_model = toMsg(r.ieee_model);
+  cl.final_model = toMsg(r.final_model);
+  cl.wavelet_variance_points = r.wavelet_variance_points;
+  cl.wavelet_variance_within_ci = r.wavelet_variance_within_ci;
+  cl.wavelet_variance_confidence = r.wavelet_variance_confidence;
+  return m;
+}
+
 int level(bool warn, bool error) {
   return error ? diagnostic_msgs::DiagnosticStatus::ERROR
                : warn ? diagnostic_msgs::DiagnosticStatus::WARN : diagnostic_msgs::DiagnosticStatus::OK;
@@ -205,6 +299,11 @@ AnalyzerParams loadAnalyzerParams(const ros::NodeHandle& pnh, std::vector<std::s
   if (p.method == "wavelet_split" && !ao.wavelet_split)
     invalid("wavelet_split", "false contradicts method wavelet_split", "true"), ao.wavelet_split = true;
   r.get("model_check", &ao.model_check);
+  r.get("gmwm", &ao.gmwm);
+  r.get("filter_rate", &p.filter_rate);
+  if (!(p.filter_rate >= 0) || p.filter_rate > 1e6)
+    invalid("filter_rate", "must be in [0, 1e6] Hz", "0 (data rate only)"), p.filter_rate = 0;
+  if (p.filter_rate > 0) ao.gmwm = true;  // as analyze_bag --filter-rate implies --method gmwm
   r.get("rest_check", &o.pipeline.rest_check);
   r.get("spike_z", &p.spike_z);
   if (!(p.spike_z >= 0)) invalid("spike_z", "must be >= 0", "10"), p.spike_z = 10;
@@ -267,12 +366,16 @@ std::string applyConfig(AnalyzerConfig& c, AnalyzerParams* p) {
   n.online.pipeline.analysis.method = c.method;
   n.online.pipeline.analysis.wavelet_split = c.wavelet_split;
   n.online.pipeline.analysis.model_check = c.model_check;
+  if (c.filter_rate > 0) c.gmwm = true;  // a filter rate implies the GMWM stage (as analyze_bag --filter-rate)
+  n.online.pipeline.analysis.gmwm = c.gmwm;
+  n.filter_rate = c.filter_rate;
   n.online.pipeline.rest_check = c.rest_check;
   n.rms_log10_warn = c.rms_log10_warn;
   n.rms_log10_error = c.rms_log10_error;
   if (n.method != "auto" && n.method != "joint_fit" && n.method != "wavelet_split") return "method must be auto, joint_fit or wavelet_split";
   if (n.method == "wavelet_split" && !c.wavelet_split) return "method wavelet_split needs wavelet_split";
   if (!(n.rms_log10_warn > 0) || n.rms_log10_error < n.rms_log10_warn) return "rms_log10_warn/error must be 0 < warn <= error";
+  if (!(n.filter_rate >= 0) || n.filter_rate > 1e6) return "filter_rate must be in [0, 1e6] Hz";
   try {
     n.online.validate();
   } catch (const std::exception& e) {
@@ -289,6 +392,8 @@ AnalyzerConfig toConfig(const AnalyzerParams& p) {
   c.method = p.method;
   c.wavelet_split = p.online.pipeline.analysis.wavelet_split;
   c.model_check = p.online.pipeline.analysis.model_check;
+  c.gmwm = p.online.pipeline.analysis.gmwm;
+  c.filter_rate = p.filter_rate;
   c.rest_check = p.online.pipeline.rest_check;
   c.rms_log10_warn = p.rms_log10_warn;
   c.rms_log10_error = p.rms_log10_error;
@@ -323,6 +428,27 @@ NoiseReport toNoiseReport(const OnlineResult& r, const AnalyzerParams& p, const 
   m.at_rest = !pr.rest_checked || pr.rest.at_rest;
   m.warnings = pr.warnings;
   for (const AxisAnalysis& a : pr.gyro) m.axes.push_back(toAxisMsg(a));
+  return m;
+}
+
+bool hasNoiseModel(const PipelineResult& r) {
+  for (const AxisAnalysis& a : r.gyro)
+    if (a.has_gmwm) return true;
+  return false;
+}
+
+NoiseModel toNoiseModel(const OnlineResult& r, const AnalyzerParams& p, const std::string& frame_id,
+                        const std::vector<std::string>& sources) {
+  NoiseModel m;
+  m.header.stamp = fromNs(r.last_ns);
+  m.header.frame_id = frame_id;
+  m.window_start = fromNs(r.first_ns);
+  m.window_end = fromNs(r.last_ns);
+  m.rate_hz = r.result.tau0 > 0 ? 1.0 / r.result.tau0 : 0;
+  m.filter_rate_hz = p.filter_rate;
+  m.sources = sources;
+  for (const AxisAnalysis& a : r.result.gyro)
+    if (a.has_gmwm) m.axes.push_back(toAxisNoiseModel(a, p.filter_rate));
   return m;
 }
 
@@ -524,6 +650,33 @@ void diagFit(const DiagState& s, const AnalyzerParams& p, diagnostic_updater::Di
     }
   }
   stat.summary(static_cast<unsigned char>(worst), worst ? "fit error above ~rms_log10_warn" : "fit ok");
+}
+
+void diagNoiseModel(const DiagState& s, const AnalyzerParams& p, diagnostic_updater::DiagnosticStatusWrapper& stat) {
+  stat.add("filter rate (Hz, 0 = data rate only)", p.filter_rate);
+  if (!p.online.pipeline.analysis.gmwm)  // (~noise_model keeps its last message latched)
+    return stat.summary(diagnostic_msgs::DiagnosticStatus::OK, "GMWM off (~gmwm)");
+  if (!s.have_noise_model) return stat.summary(diagnostic_msgs::DiagnosticStatus::OK, "no noise model yet");
+  std::string summary, failed;
+  for (const AxisNoiseModel& a : s.last_noise_model.axes) {
+    stat.add("model " + a.axis, a.ok ? a.model : "none: " + a.error);
+    if (a.ok) {
+      stat.add("angle random walk " + a.axis + " (rad/sqrt(s))", a.continuous.angle_random_walk.value);
+      for (size_t k = 0; k < a.continuous.gauss_markov.size(); ++k) {
+        const std::string gm = "gm" + std::to_string(k + 1) + " " + a.axis;
+        stat.add(gm + " sigma (rad/s)", a.continuous.gauss_markov[k].sigma.value);
+        stat.add(gm + " correlation time (s)", a.continuous.gauss_markov[k].correlation_time.value);
+      }
+      if (a.model.find("RW") != std::string::npos)
+        stat.add("rate random walk " + a.axis + " (rad/s/sqrt(s))", a.continuous.rate_random_walk.value);
+    } else {
+      failed += (failed.empty() ? "" : ", ") + a.axis;
+    }
+    summary += (summary.empty() ? "" : ", ") + a.axis + " " + (a.ok ? a.model : "none");
+  }
+  if (!failed.empty())
+    stat.summary(diagnostic_msgs::DiagnosticStatus::WARN, "no GMWM model on axis " + failed + " (" + summary + ")");
+  else stat.summary(diagnostic_msgs::DiagnosticStatus::OK, summary.empty() ? "no gyro axis" : summary);
 }
 
 void diagQuality(const DiagState& s, diagnostic_updater::DiagnosticStatusWrapper& stat) {

@@ -10,6 +10,7 @@
 #include <diagnostic_updater/DiagnosticStatusWrapper.h>
 #include <gyro_allan/AllanCurve.h>
 #include <gyro_allan/AnalyzerConfig.h>
+#include <gyro_allan/NoiseModel.h>
 #include <gyro_allan/NoiseReport.h>
 #include <ros/ros.h>
 #include <sensor_msgs/Image.h>
@@ -26,6 +27,8 @@ struct AnalyzerParams {
   std::string angle_mode = "accumulated";
   std::string tau_grid = "log:10";
   std::string method = "auto";
+  double filter_rate = 0;          ///< ~noise_model / noise_model.yaml: Phi/Qd also at this rate [Hz]; 0 = data rate only
+                                   ///< (> 0 turns the GMWM stage on: online.pipeline.analysis.gmwm)
   double spike_z = 10;             ///< 0 = keep spikes
   bool publish_curves = true, publish_plot = true;
   int plot_width = 800, plot_height = 600;
@@ -52,6 +55,12 @@ AnalyzerConfig toConfig(const AnalyzerParams& p);
 /// ~noise message of one analysed window.
 NoiseReport toNoiseReport(const OnlineResult& r, const AnalyzerParams& p, const std::string& frame_id,
                           double mean_temperature);
+/// ~noise_model message of one analysed window: the GMWM model of the gyro axes analysed with it (AnalysisOptions::gmwm),
+/// copied from axisNoiseModel (io/noise_model_yaml.hpp), the source of noise_model.yaml too; sources as there.
+NoiseModel toNoiseModel(const OnlineResult& r, const AnalyzerParams& p, const std::string& frame_id,
+                        const std::vector<std::string>& sources);
+/// True when some gyro axis of the result carries a GMWM stage (then ~noise_model and ~save's noise_model.yaml).
+bool hasNoiseModel(const PipelineResult& r);
 /// ~allan/<axis> message of one axis.
 AllanCurve toCurve(const AxisAnalysis& a, const std_msgs::Header& header);
 /// ~plot image of the window's curves and models (throws when rendering is unavailable).
@@ -70,6 +79,8 @@ struct DiagState {
   OnlineResult last;               ///< the last analysis (ok or not)
   bool have_good = false;
   NoiseReport last_report;         ///< the last published ~noise
+  bool have_noise_model = false;
+  NoiseModel last_noise_model;     ///< the last published ~noise_model
   std::string source;              ///< "imu", "angle" or "" while waiting
   uint64_t other_source = 0;       ///< messages of the other input topic ignored
   std::vector<std::string> param_problems;  ///< from loading and refused reconfigures
@@ -94,6 +105,7 @@ void diagWindow(const DiagState& s, const AnalyzerParams& p, RecentProblems* rp,
 void diagMotion(const DiagState& s, diagnostic_updater::DiagnosticStatusWrapper& stat);
 void diagParams(const DiagState& s, diagnostic_updater::DiagnosticStatusWrapper& stat);
 void diagFit(const DiagState& s, const AnalyzerParams& p, diagnostic_updater::DiagnosticStatusWrapper& stat);
+void diagNoiseModel(const DiagState& s, const AnalyzerParams& p, diagnostic_updater::DiagnosticStatusWrapper& stat);
 void diagQuality(const DiagState& s, diagnostic_updater::DiagnosticStatusWrapper& stat);
 void diagTerm(int term, const DiagState& s, const AnalyzerParams& p, diagnostic_updater::DiagnosticStatusWrapper& stat);
 extern const char* const kTermLabel[kNumTerms];

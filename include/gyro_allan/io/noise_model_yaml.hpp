@@ -11,6 +11,10 @@
 
 namespace gyro_allan {
 
+/// The reported model of one axis (a.has_gmwm): reportedNoiseModel (gmwm.hpp) with the IEEE fit's selection-corrected
+/// bias instability for the flicker comparison. noise_model.yaml and the nodelet's ~noise_model are both filled from it.
+ReportedNoiseModel axisNoiseModel(const AxisAnalysis& a, double filter_rate_hz);
+
 /// The tree (axes without a GMWM stage are skipped; an axis whose stage failed carries `error`).
 /// filter_rate_hz <= 0: only the data rate's discrete model.
 YAML::Node noiseModelNode(const std::vector<AxisAnalysis>& axes, double filter_rate_hz,
