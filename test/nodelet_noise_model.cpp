@@ -185,6 +185,18 @@ int expectSameAsYaml(const gyro_allan::NoiseModel& m, const YAML::Node& yaml) {
         EXPECT_EQ(o.first->sigma, 0.0) << o.second;
       }
     }
+    const YAML::Node ma = c["moving_average"];  // MA(q) short-memory noise: only in MA models
+    if (ma.IsDefined()) {
+      EXPECT_EQ(a.continuous.moving_average.order, ma["order"].as<unsigned>());
+      EXPECT_EQ(a.continuous.moving_average.theta.size(), ma["theta"].size());
+      for (size_t k = 0; k < a.continuous.moving_average.theta.size() && k < ma["theta"].size(); ++k) {
+        expectNear(a.continuous.moving_average.theta[k], ma["theta"][k], "ma theta");
+        expectNear(a.continuous.moving_average.theta_sigma[k], ma["theta_sigma"][k], "ma theta_sigma");
+      }
+      expectValueSigma(a.continuous.moving_average.innovation, ma["innovation"], "ma innovation");
+    } else {
+      EXPECT_EQ(a.continuous.moving_average.order, 0u);
+    }
     const YAML::Node gm = c["gauss_markov"];
     EXPECT_EQ(a.continuous.gauss_markov.size(), gm.size());
     for (size_t k = 0; k < a.continuous.gauss_markov.size() && k < gm.size(); ++k) {
@@ -218,6 +230,7 @@ int expectSameAsYaml(const gyro_allan::NoiseModel& m, const YAML::Node& yaml) {
       expectNear(d.measurement_variance, yd["measurement_variance"], w + ".measurement_variance");
       expectNear(d.white_variance, yd["white_variance"], w + ".white_variance");
       expectNear(d.quantization_variance, yd["quantization_variance"], w + ".quantization_variance");
+      EXPECT_EQ(d.approximation, yd["approximation"].IsDefined() ? yd["approximation"].as<std::string>() : "") << w;
     }
     if (a.discrete.size() == 2) {
       EXPECT_NEAR(a.discrete[1].dt, 1.0 / kFilterRate, 1e-15);

@@ -211,6 +211,13 @@ AxisNoiseModel toAxisNoiseModel(const AxisAnalysis& a, double filter_rate_hz) {
   if (f.model.quantization) m.continuous.quantization = valueSigma(f.Q, f.Q_sd);
   if (f.model.random_walk) m.continuous.rate_random_walk = valueSigma(f.K, f.K_sd);
   if (f.model.drift) m.continuous.rate_ramp = valueSigma(f.R, f.R_sd);
+  if (f.model.moving_average > 0) {
+    MovingAverageNoise& ma = m.continuous.moving_average;
+    ma.order = static_cast<uint32_t>(f.model.moving_average);
+    ma.theta = f.ma;
+    ma.theta_sigma = f.ma_sd;
+    ma.innovation = valueSigma(f.ma_innovation, f.ma_innovation_sd);
+  }
   for (const GaussMarkovTerm& t : f.gm) {
     GaussMarkovProcess g;
     g.sigma = valueSigma(t.sigma, t.sigma_sd);
@@ -229,6 +236,7 @@ AxisNoiseModel toAxisNoiseModel(const AxisAnalysis& a, double filter_rate_hz) {
     dm.measurement_variance = d.measurement_variance;
     dm.white_variance = d.model.white_variance;
     dm.quantization_variance = d.model.quantization_variance;
+    dm.approximation = d.model.approximation;
     m.discrete.push_back(dm);
   }
   FlickerApproximation& fl = m.flicker_approximation;
