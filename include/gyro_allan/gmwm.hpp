@@ -49,6 +49,13 @@ double wvDrift(double w2, double tau);
 ///   ((phi^2 - 1) tau + 2 phi (phi^tau - 4 phi^(tau/2) + 3)) s2 / ((phi - 1)^3 (phi + 1) tau^2).
 /// Evaluated in a cancellation-free form in terms of a = -ln(phi).
 double wvAr1(double phi, double s2, double tau);
+/// Moving average x_t = e_t + theta_1 e_{t-1} + ... + theta_q e_{t-q}, Var(e) = s2: autocovariances gamma_0..gamma_q,
+/// gamma_h = s2 sum_k theta_k theta_{k+h} (theta_0 = 1).
+std::vector<double> maAutocovariance(const std::vector<double>& theta, double s2);
+/// Haar wavelet variance of a stationary process whose autocovariance vanishes beyond acf.size() - 1 (short memory,
+/// e.g. an MA(q)), exact at any scale tau = 2m samples: (2m gamma_0 + 2 sum_{h>=1} a_m(h) gamma_h) / (4 m^2) with the
+/// Haar filter's autocorrelation a_m(h) = 2m - 3h (h <= m), -(2m - h) (m <= h < 2m), 0 beyond. O(q).
+double wvShortMemory(const std::vector<double>& acf, double tau);
 /// Exact Haar wavelet variance of a stationary process from its autocovariance acf[0..] (acf[k] = 0 beyond the
 /// vector): sum_l sum_l' h_l h_l' acf(|l - l'|). O(tau^2); the reference for the closed forms (tests).
 double wvFromAutocovariance(const std::vector<double>& acf, int64_t tau);
@@ -61,10 +68,14 @@ struct GmwmModel {
   bool random_walk = false;    ///< RW (rate random walk K)
   bool drift = false;          ///< DR (rate ramp R)
   int gauss_markov = 0;        ///< number of first-order Gauss-Markov (AR1) terms
-  std::string name() const;    ///< e.g. "WN+2GM+RW"
+  /// Order q of a short-memory measurement noise MA(q) (white noise through a q-tap FIR, e.g. a sensor's output
+  /// filter) that replaces WN (white = false; WN is MA(0)); 0 = none.
+  int moving_average = 0;
+  std::string name() const;    ///< e.g. "WN+2GM+RW", "MA2+GM+RW"
   int parameters() const;      ///< free parameters
 };
-/// Parses "WN+2GM+RW", "QN+WN+GM", ... (terms WN, QN, RW, DR, GM, kGM; case-insensitive). Throws on bad text.
+/// Parses "WN+2GM+RW", "QN+WN+GM", "MA2+GM", ... (terms WN, MAq (q = 1..9, not with WN), QN, RW, DR, GM, kGM;
+/// case-insensitive). Throws on bad text.
 GmwmModel parseGmwmModel(const std::string& text);
 
 struct GaussMarkovTerm {
@@ -78,7 +89,12 @@ struct GmwmFit {
   GmwmModel model;
   bool ok = false;
   std::string message;
-  double N = 0, N_sd = 0;       ///< angle random walk [rad/sqrt(s)]
+  double N = 0, N_sd = 0;       ///< angle random walk [rad/sqrt(s)]; with MA(q): its long-run equivalent sqrt(S(0) tau0)
+  /// MA(q) measurement noise (model.moving_average = q): coefficients theta_1..theta_q (lags in data samples) with
+  /// their 1-sigma, and the innovation as a white-noise density sqrt(Var(e) tau0) [rad/sqrt(s)]. Its long-run angle
+  /// random walk is N = ma_innovation * |1 + sum theta|.
+  std::vector<double> ma, ma_sd;
+  double ma_innovation = 0, ma_innovation_sd = 0;
   double Q = 0, Q_sd = 0;       ///< quantization [rad] (Allan convention: AVAR 3 Q^2 / tau^2)
   double K = 0, K_sd = 0;       ///< rate random walk [rad/s/sqrt(s)]
   double R = 0, R_sd = 0;       ///< rate ramp magnitude [rad/s^2]
@@ -108,6 +124,9 @@ struct GmwmOptions {
   /// quantization / drift below are set).
   std::vector<GmwmModel> candidates;
   int max_gm = 3;
+  /// MA(q) measurement-noise candidates (docs/gmwm.md): each WN candidate again with MA(1) instead of WN; when the
+  /// selection then picks an MA(q) model, MA(q+1) versions are added, up to this order (0 = none).
+  int max_ma = 4;
   bool quantization = false;    ///< default candidates also carry QN
   bool drift = false;           ///< default candidates also carry DR
   double max_log_sd = 0.5;      ///< see GmwmFit::identified
@@ -141,6 +160,10 @@ GmwmSelection selectGmwm(const WaveletVariance& wv, const GmwmOptions& options =
 double gmwmModelAvar(const GmwmFit& fit, double tau0, int64_t m);
 /// Model wavelet variance at scale 2^j tau0.
 double gmwmModelWvAt(const GmwmFit& fit, double tau0, int level);
+/// A record of n samples at interval tau0 simulated from the fitted model (WN or MA(q), GM terms started
+/// stationary, RW from 0, QN as a first difference of white noise, DR as a ramp; deterministic by seed): data of which
+/// `fit` is the truth, e.g. to see how often the true model's Allan deviation lies inside the data's CI.
+std::vector<double> simulateGmwmFit(const GmwmFit& fit, double tau0, int64_t n, uint64_t seed);
 
 /// Discrete bias model b = sum of states, state x = [gm_i .. , rw] (rw only when K > 0):
 /// x[k+1] = Phi x[k] + w[k], Cov(w) = Qd, Phi = diag(exp(-dt/tc_i), 1), Qd = diag(sigma_i^2 (1 - exp(-2 dt/tc_i)),
@@ -149,6 +172,8 @@ double gmwmModelWvAt(const GmwmFit& fit, double tau0, int level);
 /// is not a state but folded into the white variance as the white noise with the same long-run angle random walk:
 /// N_eq^2 / dt with N_eq^2 = sigma^2 tau0 (1 + phi0) / (1 - phi0), phi0 = exp(-tau0/tc) at the data interval tau0
 /// (the sampled AR(1)'s sum of autocovariances; 2 sigma^2 tc when tc >> tau0). Listed in `folded`.
+/// An MA(q) measurement noise is folded the same way (its N is already the long-run equivalent, S(0) tau0), listed
+/// as "maq"; at dt < q tau0 its lag correlations within q samples are lost, which `approximation` says.
 struct DiscreteNoiseModel {
   double dt = 0;
   Eigen::MatrixXd Phi, Qd;
@@ -156,6 +181,7 @@ struct DiscreteNoiseModel {
   std::vector<std::string> folded;   ///< GM terms folded into white_variance
   double white_variance = 0;      ///< N^2 / dt (+ folded GMs) [(rad/s)^2]
   double quantization_variance = 0;  ///< 2 Q^2 / dt^2 [(rad/s)^2]
+  std::string approximation;      ///< empty, or what the white measurement noise leaves out at this dt
 };
 DiscreteNoiseModel discretize(const GmwmFit& fit, double dt);
 

@@ -7,6 +7,7 @@
 #include <functional>
 #include <cmath>
 #include <limits>
+#include <random>
 #include <stdexcept>
 
 #include <boost/math/distributions/chi_squared.hpp>
@@ -96,6 +97,28 @@ double wvAr1(double phi, double s2, double tau) {
   return v * ar1UnitWv(a, tau);
 }
 
+std::vector<double> maAutocovariance(const std::vector<double>& theta, double s2) {
+  const size_t q = theta.size();
+  std::vector<double> c(q + 1, 0.0);
+  for (size_t h = 0; h <= q; ++h)
+    for (size_t k = 0; k + h <= q; ++k) c[h] += (k ? theta[k - 1] : 1.0) * (k + h ? theta[k + h - 1] : 1.0);
+  for (auto& v : c) v *= s2;
+  return c;
+}
+
+double wvShortMemory(const std::vector<double>& acf, double tau) {
+  // W = sum_l h_l x_{t-l}, h_l = 1/(2m) for l < m, -1/(2m) for m <= l < 2m; Var(W) = sum_h (sum_l h_l h_{l+|h|})
+  // gamma_h, and sum_l s_l s_{l+h} of the +-1 pattern is 2(m - h) - h for 0 <= h <= m, -(2m - h) for m <= h < 2m.
+  const double m = tau / 2.0;
+  double s = 2.0 * m * (acf.empty() ? 0.0 : acf[0]);
+  for (size_t h = 1; h < acf.size(); ++h) {
+    const double hd = static_cast<double>(h);
+    if (hd >= 2.0 * m) break;
+    s += 2.0 * (hd <= m ? 2.0 * m - 3.0 * hd : -(2.0 * m - hd)) * acf[h];
+  }
+  return s / (4.0 * m * m);
+}
+
 double wvFromAutocovariance(const std::vector<double>& acf, int64_t tau) {
   if (tau < 2 || tau % 2) throw std::invalid_argument("wvFromAutocovariance: tau must be even and >= 2");
   const int64_t m = tau / 2;
@@ -117,6 +140,7 @@ std::string GmwmModel::name() const {
   auto add = [&](const std::string& t) { s += (s.empty() ? "" : "+") + t; };
   if (quantization) add("QN");
   if (white) add("WN");
+  if (moving_average > 0) add("MA" + std::to_string(moving_average));
   if (gauss_markov == 1) add("GM");
   if (gauss_markov > 1) add(std::to_string(gauss_markov) + "GM");
   if (random_walk) add("RW");
@@ -125,7 +149,7 @@ std::string GmwmModel::name() const {
 }
 
 int GmwmModel::parameters() const {
-  return (white ? 1 : 0) + (quantization ? 1 : 0) + (random_walk ? 1 : 0) + (drift ? 1 : 0) + 2 * gauss_markov;
+  return (white ? 1 : 0) + (moving_average > 0 ? 1 + moving_average : 0) + (quantization ? 1 : 0) + (random_walk ? 1 : 0) + (drift ? 1 : 0) + 2 * gauss_markov;
 }
 
 GmwmModel parseGmwmModel(const std::string& text) {
@@ -142,6 +166,7 @@ GmwmModel parseGmwmModel(const std::string& text) {
     else if (t == "QN") m.quantization = true;
     else if (t == "RW") m.random_walk = true;
     else if (t == "DR") m.drift = true;
+    else if (t.size() == 3 && t.substr(0, 2) == "MA" && t[2] >= '1' && t[2] <= '9') m.moving_average = t[2] - '0';
     else if (t.size() >= 2 && t.substr(t.size() - 2) == "GM") {
       const std::string k = t.substr(0, t.size() - 2);
       int count = 1;
@@ -152,10 +177,13 @@ GmwmModel parseGmwmModel(const std::string& text) {
       }
       m.gauss_markov += count;
     } else {
-      throw std::invalid_argument("GMWM model: unknown term '" + t + "' in '" + text + "' (WN, QN, RW, DR, GM, kGM)");
+      throw std::invalid_argument("GMWM model: unknown term '" + t + "' in '" + text +
+                                  "' (WN, MAq, QN, RW, DR, GM, kGM)");
     }
     pos = end + 1;
   }
+  if (m.white && m.moving_average > 0)
+    throw std::invalid_argument("GMWM model: MAq already contains the white noise (WN is MA0): '" + text + "'");
   if (m.gauss_markov > 5) throw std::invalid_argument("GMWM model: at most 5 GM terms");
   if (m.parameters() == 0) throw std::invalid_argument("GMWM model: no term");
   return m;
@@ -163,12 +191,18 @@ GmwmModel parseGmwmModel(const std::string& text) {
 
 namespace {
 
-// Internal parameters (sample units, logs): [WN log s2][QN log q2][RW log g2][DR log w2][GM_i log v_i, log tc_i].
+// Internal parameters (sample units, logs except the MA coefficients): [WN log s2][MA log s2, theta_1..theta_q]
+// [QN log q2][RW log g2][DR log w2][GM_i log v_i, log tc_i].
 struct Layout {
-  int wn = -1, qn = -1, rw = -1, dr = -1, gm0 = -1, p = 0, n_gm = 0;
+  int wn = -1, ma = -1, n_ma = 0, qn = -1, rw = -1, dr = -1, gm0 = -1, p = 0, n_gm = 0;
   Layout() = default;
   explicit Layout(const GmwmModel& m) {
     if (m.white) wn = p++;
+    if (m.moving_average > 0) {
+      ma = p;
+      n_ma = m.moving_average;
+      p += 1 + n_ma;
+    }
     if (m.quantization) qn = p++;
     if (m.random_walk) rw = p++;
     if (m.drift) dr = p++;
@@ -178,9 +212,17 @@ struct Layout {
   }
 };
 
+/// Autocovariance gamma_0..gamma_q of the MA term of `th`.
+std::vector<double> maAcf(const Layout& L, const Eigen::VectorXd& th) {
+  std::vector<double> theta(static_cast<size_t>(L.n_ma));
+  for (int k = 0; k < L.n_ma; ++k) theta[static_cast<size_t>(k)] = th[L.ma + 1 + k];
+  return maAutocovariance(theta, std::exp(th[L.ma]));
+}
+
 double modelWvAt(const Layout& L, const Eigen::VectorXd& th, double tau) {
   double s = 0;
   if (L.wn >= 0) s += wvWhite(std::exp(th[L.wn]), tau);
+  if (L.ma >= 0) s += wvShortMemory(maAcf(L, th), tau);
   if (L.qn >= 0) s += wvQuantization(std::exp(th[L.qn]), tau);
   if (L.rw >= 0) s += wvRandomWalk(std::exp(th[L.rw]), tau);
   if (L.dr >= 0) s += wvDrift(std::exp(th[L.dr]), tau);
@@ -190,9 +232,15 @@ double modelWvAt(const Layout& L, const Eigen::VectorXd& th, double tau) {
 }
 
 /// Two-sided spectrum (sample units, f in cycles/sample) of the stochastic part, sin2 = sin^2(pi f).
-double spectrum(const Layout& L, const Eigen::VectorXd& th, double sin2) {
+double spectrum(const Layout& L, const Eigen::VectorXd& th, double f, double sin2) {
   double s = 0;
   if (L.wn >= 0) s += std::exp(th[L.wn]);
+  if (L.ma >= 0) {  // s2 |1 + sum theta_k e^{-i 2 pi f k}|^2 = gamma_0 + 2 sum gamma_h cos(2 pi f h)
+    const std::vector<double> g = maAcf(L, th);
+    double v = g[0];
+    for (size_t h = 1; h < g.size(); ++h) v += 2.0 * g[h] * std::cos(2.0 * M_PI * f * static_cast<double>(h));
+    s += std::max(v, 0.0);
+  }
   if (L.qn >= 0) s += std::exp(th[L.qn]) * 4.0 * sin2;
   if (L.rw >= 0) s += std::exp(th[L.rw]) / (4.0 * sin2);
   for (int i = 0; i < L.n_gm; ++i) {
@@ -250,7 +298,7 @@ Eigen::MatrixXd gmwmCovariance(const WaveletVariance& wv, const GmwmModel& model
       // envelope E(f) = S(f)^2 / (mj^2 mk^2 sin^4(pi f)); integrand = sin^4(pi f mj) sin^4(pi f mk) E(f)
       auto envelope = [&](double f, double* s2out) {
         const double sn = std::sin(M_PI * f), s2 = sn * sn;
-        const double S = spectrum(L, theta, s2);
+        const double S = spectrum(L, theta, f, s2);
         if (s2out) *s2out = s2;
         return S * S / (mj * mj * mk * mk * s2 * s2);
       };
@@ -414,6 +462,15 @@ Problem makeProblem(const WaveletVariance& wv, const Layout& L) {
     P.lo[L.gm0 + 2 * i + 1] = std::log(0.25);                  // correlation time >= a quarter sample
     P.hi[L.gm0 + 2 * i + 1] = std::log(4.0 * static_cast<double>(wv.n));  // <= 4 record lengths
   }
+  // MA coefficients: |theta_k| <= binomial(q, k), a box holding every invertible MA(q) (roots of 1 + sum theta_k z^k
+  // outside the unit disc: its coefficients are bounded by those of (1 + z)^q). Every non-negative spectrum of
+  // degree q has an invertible factorization (Fejer-Riesz), so the box loses no autocovariance.
+  for (int k = 1; k <= L.n_ma; ++k) {
+    double binom = 1;
+    for (int i = 1; i <= k; ++i) binom = binom * (L.n_ma - k + i) / i;
+    P.lo[L.ma + k] = -binom;
+    P.hi[L.ma + k] = binom;
+  }
   // First pass: diagonal weights from the data's own WV (2 nu_hat^4 / eta).
   {
     Eigen::MatrixXd d = Eigen::MatrixXd::Zero(J, J);
@@ -467,6 +524,10 @@ Eigen::VectorXd bestStart(const Problem& P, const WaveletVariance& wv, const Gmw
     Eigen::VectorXd th(L.p);
     const double share = 1.0 / (1 + L.n_gm + (model.random_walk ? 1 : 0));
     if (L.wn >= 0) th[L.wn] = std::log(2.0 * wv.nu2[0] * 0.9);
+    if (L.ma >= 0) {  // white start: innovation as WN, theta = 0
+      th[L.ma] = std::log(2.0 * wv.nu2[0] * 0.9);
+      for (int k = 1; k <= L.n_ma; ++k) th[L.ma + k] = 0.0;
+    }
     if (L.qn >= 0) th[L.qn] = std::log(wv.nu2[0] * 4.0 / 6.0 * 0.1);
     if (L.rw >= 0) th[L.rw] = std::log(12.0 * wv.nu2.back() / tau_max * share);
     if (L.dr >= 0) th[L.dr] = std::log(16.0 * wv.nu2.back() / (tau_max * tau_max) * share);
@@ -531,6 +592,23 @@ void fillSiValues(const Layout& L, GmwmFit* fit) {
     fit->N = std::sqrt(std::exp(fit->theta[L.wn]) * t0);
     fit->N_sd = fit->N * logSd(*fit, L.wn) / 2;
   }
+  if (L.ma >= 0) {
+    // Innovation density sqrt(s2 tau0); long-run ARW N = that * |1 + sum theta| (S(0) = s2 (1 + sum theta)^2), its
+    // log-sd from the gradient of log N: 1/2 on log s2, 1 / (1 + sum theta) on each theta.
+    fit->ma_innovation = std::sqrt(std::exp(fit->theta[L.ma]) * t0);
+    fit->ma_innovation_sd = fit->ma_innovation * logSd(*fit, L.ma) / 2;
+    double sum = 1;
+    for (int k = 1; k <= L.n_ma; ++k) {
+      fit->ma.push_back(fit->theta[L.ma + k]);
+      fit->ma_sd.push_back(logSd(*fit, L.ma + k));
+      sum += fit->theta[L.ma + k];
+    }
+    fit->N = fit->ma_innovation * std::fabs(sum);
+    Eigen::VectorXd grad = Eigen::VectorXd::Zero(fit->theta.size());
+    grad[L.ma] = 0.5;
+    for (int k = 1; k <= L.n_ma; ++k) grad[L.ma + k] = 1.0 / sum;
+    fit->N_sd = fit->N * std::sqrt(std::max((grad.transpose() * fit->theta_cov * grad)(0, 0), 0.0));
+  }
   if (L.qn >= 0) {
     fit->Q = std::sqrt(std::exp(fit->theta[L.qn])) * t0;
     fit->Q_sd = fit->Q * logSd(*fit, L.qn) / 2;
@@ -565,6 +643,13 @@ void checkIdentified(const Layout& L, double max_log_sd, GmwmFit* fit) {
   // WN is every model's base term and QN a sensor property: selection is among the coloured terms, so only those must
   // be supported (a WN traded against a sub-sample GM, as on sensors with an internal low-pass, is no reason to
   // reject the model).
+  // MA(q): its order is supported when the last coefficient lies more than 2 sigma from zero (theta is not a log:
+  // the same test as "a variance more than 2 sigma above zero" for the others).
+  if (L.ma >= 0 && !(std::fabs(fit->theta[L.ma + L.n_ma]) > 2.0 * logSd(*fit, L.ma + L.n_ma))) {
+    fit->identified = false;
+    fit->unidentified += (fit->unidentified.empty() ? "" : ", ") + std::string("MA") + std::to_string(L.n_ma) +
+                         " theta" + std::to_string(L.n_ma);
+  }
   check(L.rw, "RW");
   check(L.dr, "DR");
   for (int i = 0; i < L.n_gm; ++i) {
@@ -643,17 +728,41 @@ GmwmSelection selectGmwm(const WaveletVariance& wv, const GmwmOptions& options) 
     }
   }
   GmwmSelection sel;
-  for (const auto& m : cands) {
-    sel.fits.push_back(fitGmwm(wv, m, options));
-    const GmwmFit& f = sel.fits.back();
-    (void)f;
-  }
-  for (int pass = 0; pass < 2 && sel.best < 0; ++pass)
-    for (size_t i = 0; i < sel.fits.size(); ++i) {
-      const GmwmFit& f = sel.fits[i];
-      if (!f.ok || (pass == 0 && !f.identified)) continue;
-      if (sel.best < 0 || f.criterion < sel.fits[static_cast<size_t>(sel.best)].criterion) sel.best = static_cast<int>(i);
+  for (const auto& m : cands) sel.fits.push_back(fitGmwm(wv, m, options));
+  auto pick = [&sel]() {
+    sel.best = -1;
+    for (int pass = 0; pass < 2 && sel.best < 0; ++pass)
+      for (size_t i = 0; i < sel.fits.size(); ++i) {
+        const GmwmFit& f = sel.fits[i];
+        if (!f.ok || (pass == 0 && !f.identified)) continue;
+        if (sel.best < 0 || f.criterion < sel.fits[static_cast<size_t>(sel.best)].criterion)
+          sel.best = static_cast<int>(i);
+      }
+  };
+  pick();
+  // Short-memory measurement noise, forward in the order: the WN candidates again with MA(q) for WN, q = 1, 2, ...,
+  // while the best criterion among order q's fits (identified or not: a sub-sample GM standing in for the filter
+  // makes some unidentified) beats order q-1's (default candidate lists only).
+  if (options.candidates.empty()) {
+    std::vector<GmwmModel> white_cands;
+    for (const auto& m : cands)
+      if (m.white) white_cands.push_back(m);
+    auto bestOfOrder = [&sel](int q) {
+      double b = std::numeric_limits<double>::infinity();
+      for (const auto& f : sel.fits)
+        if (f.ok && f.model.moving_average == q && (q > 0 || f.model.white)) b = std::min(b, f.criterion);
+      return b;
+    };
+    for (int q = 1; q <= options.max_ma; ++q) {
+      for (GmwmModel m : white_cands) {
+        m.white = false;
+        m.moving_average = q;
+        sel.fits.push_back(fitGmwm(wv, m, options));
+      }
+      if (!(bestOfOrder(q) < bestOfOrder(q - 1))) break;
     }
+    pick();
+  }
   return sel;
 }
 
@@ -668,6 +777,52 @@ double gmwmModelAvar(const GmwmFit& fit, double tau0, int64_t m) {
   (void)tau0;
   if (m < 1) throw std::invalid_argument("gmwmModelAvar: m must be >= 1");
   return 2.0 * modelWvAt(Layout(fit.model), fit.theta, 2.0 * static_cast<double>(m));
+}
+
+std::vector<double> simulateGmwmFit(const GmwmFit& fit, double tau0, int64_t n, uint64_t seed) {
+  if (!(tau0 > 0) || n < 1) throw std::invalid_argument("simulateGmwmFit: tau0 > 0 and n >= 1 needed");
+  const Layout L(fit.model);
+  const Eigen::VectorXd& th = fit.theta;
+  if (th.size() != L.p) throw std::invalid_argument("simulateGmwmFit: theta does not match the model");
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> nd;
+  std::vector<double> x(static_cast<size_t>(n), 0.0);
+  // Parameters are per sample (sample units), as fitted.
+  const double wn = L.wn >= 0 ? std::sqrt(std::exp(th[L.wn])) : 0.0;
+  const double ma = L.ma >= 0 ? std::sqrt(std::exp(th[L.ma])) : 0.0;
+  const double qn = L.qn >= 0 ? std::sqrt(std::exp(th[L.qn])) : 0.0;
+  const double rw = L.rw >= 0 ? std::sqrt(std::exp(th[L.rw])) : 0.0;
+  const double dr = L.dr >= 0 ? std::sqrt(std::exp(th[L.dr])) : 0.0;
+  std::vector<double> phi, inn, state, past(static_cast<size_t>(L.n_ma), 0.0);
+  for (int i = 0; i < L.n_gm; ++i) {
+    const double v = std::exp(th[L.gm0 + 2 * i]), a = std::exp(-th[L.gm0 + 2 * i + 1]);
+    phi.push_back(std::exp(-a));
+    inn.push_back(std::sqrt(v * -std::expm1(-2 * a)));
+    state.push_back(std::sqrt(v) * nd(rng));
+  }
+  for (auto& e : past) e = ma * nd(rng);
+  double walk = 0, q_prev = qn * nd(rng);
+  for (int64_t t = 0; t < n; ++t) {
+    double y = 0;
+    if (L.wn >= 0) y += wn * nd(rng);
+    if (L.ma >= 0) {
+      const double e = ma * nd(rng);
+      y += e;
+      for (int k = 0; k < L.n_ma; ++k) y += th[L.ma + 1 + k] * past[static_cast<size_t>(k)];
+      for (int k = L.n_ma - 1; k > 0; --k) past[static_cast<size_t>(k)] = past[static_cast<size_t>(k - 1)];
+      if (L.n_ma > 0) past[0] = e;
+    }
+    if (L.qn >= 0) {
+      const double q = qn * nd(rng);
+      y += q - q_prev;
+      q_prev = q;
+    }
+    for (size_t i = 0; i < phi.size(); ++i) y += (state[i] = phi[i] * state[i] + inn[i] * nd(rng));
+    if (L.rw >= 0) y += (walk += rw * nd(rng));
+    if (L.dr >= 0) y += dr * static_cast<double>(t);
+    x[static_cast<size_t>(t)] = y;
+  }
+  return x;
 }
 
 DiscreteNoiseModel discretize(const GmwmFit& fit, double dt) {
@@ -686,6 +841,16 @@ DiscreteNoiseModel discretize(const GmwmFit& fit, double dt) {
     } else {
       ++n_gm_states;
     }
+  }
+  if (fit.model.moving_average > 0) {
+    // fit.N is the MA's long-run equivalent white noise (S(0) tau0): exact for the filter's increments at dt >= q tau0
+    // up to the q-sample edges, where the MA's correlation across steps (at most q of dt/tau0 lags) is dropped.
+    const int q = fit.model.moving_average;
+    d.folded.push_back("ma" + std::to_string(q));
+    const double t0 = fit.tau0 > 0 ? fit.tau0 : dt;
+    if (dt < q * t0 * (1 - 1e-9))
+      d.approximation = "ma" + std::to_string(q) + " folded into white noise at a step below its memory (" +
+                        std::to_string(q) + " samples): its short-lag correlation is not modelled";
   }
   const int n = n_gm_states + (fit.K > 0 ? 1 : 0);
   d.Phi = Eigen::MatrixXd::Zero(n, n);

@@ -47,6 +47,7 @@ YAML::Node discreteNode(const GmwmFit& f, double dt) {
   n["measurement_variance"] = num(d.white_variance + d.quantization_variance);
   n["white_variance"] = num(d.white_variance);
   n["quantization_variance"] = num(d.quantization_variance);
+  if (!d.approximation.empty()) n["approximation"] = d.approximation;
   return n;
 }
 
@@ -109,6 +110,23 @@ YAML::Node noiseModelNode(const std::vector<AxisAnalysis>& axes, double filter_r
     n["data_rate_hz"] = num(1.0 / g.tau0);
     YAML::Node c;
     c["angle_random_walk"] = valueSd(f.N, f.N_sd, "rad/sqrt(s)");
+    if (f.model.moving_average > 0) {
+      // Short-memory measurement noise e_t + sum theta_k e_{t-k} at the data rate; angle_random_walk above is its
+      // long-run equivalent.
+      YAML::Node ma;
+      ma["order"] = f.model.moving_average;
+      YAML::Node th(YAML::NodeType::Sequence), sd(YAML::NodeType::Sequence);
+      th.SetStyle(YAML::EmitterStyle::Flow);
+      sd.SetStyle(YAML::EmitterStyle::Flow);
+      for (size_t k = 0; k < f.ma.size(); ++k) {
+        th.push_back(num(f.ma[k]));
+        sd.push_back(num(f.ma_sd[k]));
+      }
+      ma["theta"] = th;
+      ma["theta_sigma"] = sd;
+      ma["innovation"] = valueSd(f.ma_innovation, f.ma_innovation_sd, "rad/sqrt(s)");
+      c["moving_average"] = ma;
+    }
     if (f.model.quantization) c["quantization"] = valueSd(f.Q, f.Q_sd, "rad");
     if (f.model.random_walk) c["rate_random_walk"] = valueSd(f.K, f.K_sd, "rad/s/sqrt(s)");
     if (f.model.drift) c["rate_ramp"] = valueSd(f.R, f.R_sd, "rad/s^2");

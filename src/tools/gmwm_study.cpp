@@ -1,5 +1,6 @@
 // gmwm_study: Monte-Carlo study of the GMWM estimator (gmwm.hpp) on simulated records with declared Gauss-Markov
 // terms: parameter recovery (within 10 %, within the reported 2 sigma) and selection of the number of GM terms.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -64,11 +65,35 @@ struct Tally {
 };
 
 // Measured cases: the ADIS16405 static runs (shared data; 100 Hz, 10000 s, deg/s). Per run and gyro axis: GMWM
-// selection, the state-space model's ADEV against the measured oadev (log grid, 10/decade, 68.3 % CI) over
-// tau = 0.01 s .. T/10, and the same for the IEEE 952 joint fit. --verbose prints the ratio at every point.
-int runAdis(const std::string& dir, bool verbose) {
-  std::printf("%-4s %-4s %-12s | %-38s | %-28s\n", "run", "axis", "GMWM model", "GMWM ADEV: in CI / worst ratio / rms_log10",
-              "IEEE slopes: in CI / worst / rms");
+// selection, the state-space model's ADEV against the measured oadev (log grid, 10/decade) over tau = 0.01 s .. T/10:
+// points inside the data's 68.3 % and 95 % CI, and the same counts for the fitted model against `sims` records
+// simulated from it (same length, grid and CI: how often the TRUE model is inside), worst ratio, rms_log10; next to
+// the white-noise-only selection (max_ma = 0, the model before the MA(q) term) and the IEEE 952 joint fit.
+// --verbose prints the ratio at every point.
+struct InCi {
+  int points = 0, in68 = 0, in95 = 0;
+};
+
+InCi countInCi(const DeviationCurve& c68, const DeviationCurve& c95, const GmwmFit& f, double tau0, double tau_max) {
+  InCi r;
+  for (size_t i = 0; i < c68.points.size(); ++i) {
+    const auto& p = c68.points[i];
+    if (p.tau > tau_max * (1 + 1e-9) || !(p.var > 0)) continue;
+    const double md = std::sqrt(gmwmModelAvar(f, tau0, p.m));
+    ++r.points;
+    r.in68 += md >= p.dev_lo && md <= p.dev_hi;
+    r.in95 += md >= c95.points[i].dev_lo && md <= c95.points[i].dev_hi;
+  }
+  return r;
+}
+
+int runAdis(const std::string& dir, bool verbose, int sims) {
+  std::printf("in68/in95: points (of 48) where the model ADEV is inside the data's 68.3 %% / 95 %% CI; sim: the same\n"
+              "for the fitted model against %d records simulated from it (mean [min, max]); WN-only: max_ma = 0.\n",
+              sims);
+  std::printf("%-3s %-2s %-12s | %-9s %-27s %-7s %-8s | %-12s %-5s %-6s %-7s | %-17s\n", "run", "ax", "GMWM model",
+              "in68 in95", "sim in68 / in95", "worst", "rms_log", "WN-only", "in68", "worst", "rms_log",
+              "IEEE in68/worst/rms");
   for (int run = 1; run <= 3; ++run) {
     const std::string path = dir + "/adis16405_imu" + std::to_string(run) + "_100Hz.csv.gz";
     CsvOptions co;
@@ -86,29 +111,67 @@ int runAdis(const std::string& dir, bool verbose) {
       o.grid.kind = TauGridKind::Log;
       o.grid.per_decade = 10;
       const DeviationCurve curve = oadev(rate, 0.01, o);
+      DeviationCurve curve95 = curve;
+      fillConfidence(&curve95, 0.95);
       const FitResult fit = fitNoiseModel(curve);
       GmwmAxis g = gmwmStage(rate, 0.01);
-      if (!g.ok) {
-        std::printf("%-4d %-4c GMWM failed: %s\n", run, "xyz"[axis], g.message.c_str());
+      GmwmOptions wn_only;
+      wn_only.max_ma = 0;
+      GmwmAxis g0 = gmwmStage(rate, 0.01, wn_only);
+      if (!g.ok || !g0.ok) {
+        std::printf("%-3d %-2c GMWM failed: %s\n", run, "xyz"[axis], (g.ok ? g0 : g).message.c_str());
         continue;
       }
       gmwmCompare(&g, curve, fit.model_var);
-      std::printf("%-4d %-4c %-12s | %3d/%-3d %6.3f %8.4f                  | %3d/%-3d %6.3f %8.4f\n", run, "xyz"[axis],
-                  g.selection.chosen().model.name().c_str(), g.gmwm_vs_data.within_ci, g.gmwm_vs_data.points,
-                  g.gmwm_vs_data.worst_ratio, g.gmwm_vs_data.rms_log10, g.ieee_vs_data.within_ci,
+      gmwmCompare(&g0, curve, fit.model_var);
+      const GmwmFit& f = g.selection.chosen();
+      const InCi d = countInCi(curve, curve95, f, 0.01, g.record_s / 10);
+      const InCi d0 = countInCi(curve, curve95, g0.selection.chosen(), 0.01, g.record_s / 10);
+      double s68 = 0, s95 = 0;
+      int lo68 = 1 << 30, hi68 = 0, lo95 = 1 << 30, hi95 = 0;
+      for (int k = 0; k < sims; ++k) {
+        const std::vector<double> x =
+            simulateGmwmFit(f, 0.01, static_cast<int64_t>(rate.size()), 7000 + 100 * run + 10 * axis + k);
+        const DeviationCurve sc = oadev(x, 0.01, o);
+        DeviationCurve sc95 = sc;
+        fillConfidence(&sc95, 0.95);
+        const InCi r = countInCi(sc, sc95, f, 0.01, g.record_s / 10);
+        s68 += r.in68;
+        s95 += r.in95;
+        lo68 = std::min(lo68, r.in68);
+        hi68 = std::max(hi68, r.in68);
+        lo95 = std::min(lo95, r.in95);
+        hi95 = std::max(hi95, r.in95);
+      }
+      char simtxt[64] = "-";
+      if (sims > 0)
+        std::snprintf(simtxt, sizeof simtxt, "%.1f [%d,%d] / %.1f [%d,%d]", s68 / sims, lo68, hi68, s95 / sims, lo95,
+                      hi95);
+      std::printf("%-3d %-2c %-12s | %3d  %3d  %-27s %-7.3f %-8.4f | %-12s %-5d %-6.3f %-7.4f | %2d/%d %.2f %.3f\n", run,
+                  "xyz"[axis], f.model.name().c_str(), d.in68, d.in95, simtxt, g.gmwm_vs_data.worst_ratio,
+                  g.gmwm_vs_data.rms_log10, g0.selection.chosen().model.name().c_str(), d0.in68,
+                  g0.gmwm_vs_data.worst_ratio, g0.gmwm_vs_data.rms_log10, g.ieee_vs_data.within_ci,
                   g.ieee_vs_data.points, g.ieee_vs_data.worst_ratio, g.ieee_vs_data.rms_log10);
+      std::fflush(stdout);
       if (verbose) {
-        const GmwmFit& f = g.selection.chosen();
         std::printf("     N %.4g", f.N);
+        if (!f.ma.empty()) {
+          std::printf(" MA innovation %.4g theta", f.ma_innovation);
+          for (size_t k = 0; k < f.ma.size(); ++k) std::printf(" %.4f+-%.2g", f.ma[k], f.ma_sd[k]);
+        }
         for (const auto& t : f.gm) std::printf(" GM(%.4g, %.4g s)", t.sigma, t.tc);
         if (f.model.random_walk) std::printf(" K %.4g", f.K);
-        std::printf("\n     tau, data adev, ci, gmwm/data, ieee/data\n");
+        std::printf("  chi2 %.1f/%d\n     candidates:", f.chi2, f.dof);
+        for (const auto& cf : g.selection.fits)
+          std::printf(" %s %.1f%s", cf.model.name().c_str(), cf.criterion, cf.identified ? "" : "(u)");
+        std::printf("\n     tau, data adev, ci68, gmwm/data, wn-only/data, ieee/data\n");
         for (size_t i = 0; i < curve.points.size(); ++i) {
           const auto& p = curve.points[i];
           if (p.tau > g.record_s / 10) break;
           const double mg = std::sqrt(gmwmModelAvar(f, 0.01, p.m));
-          std::printf("     %9.3f %.4g [%.4g, %.4g] %.3f%s %.3f\n", p.tau, p.dev, p.dev_lo, p.dev_hi, mg / p.dev,
-                      (mg >= p.dev_lo && mg <= p.dev_hi) ? "*" : " ", std::sqrt(fit.model_var[i]) / p.dev);
+          const double m0 = std::sqrt(gmwmModelAvar(g0.selection.chosen(), 0.01, p.m));
+          std::printf("     %9.3f %.4g [%.4g, %.4g] %.4f%s %.4f %.3f\n", p.tau, p.dev, p.dev_lo, p.dev_hi, mg / p.dev,
+                      (mg >= p.dev_lo && mg <= p.dev_hi) ? "*" : " ", m0 / p.dev, std::sqrt(fit.model_var[i]) / p.dev);
         }
       }
     }
@@ -123,11 +186,13 @@ int main(int argc, char** argv) {
     const char* env = std::getenv("GYRO_ALLAN_SHARED_DATA");
     std::string dir = env ? std::string(env) + "/adis16405" : "../shared/data/adis16405";
     bool verbose = false;
+    int sims = 4;
     for (int i = 2; i < argc; ++i) {
       if (std::string(argv[i]) == "--data" && i + 1 < argc) dir = argv[++i];
+      else if (std::string(argv[i]) == "--sims" && i + 1 < argc) sims = std::atoi(argv[++i]);
       else if (std::string(argv[i]) == "--verbose") verbose = true;
     }
-    return runAdis(dir, verbose);
+    return runAdis(dir, verbose, std::max(0, sims));
   }
   int seeds = 20;
   uint64_t first = 1;
@@ -151,7 +216,7 @@ int main(int argc, char** argv) {
     else if (a == "--validation") first = 1001;
     else {
       std::fprintf(stderr,
-                   "usage: gmwm_study adis [--data DIR] [--verbose]   (measured cases: ADIS16405 runs)\n"
+                   "usage: gmwm_study adis [--data DIR] [--sims R (4)] [--verbose]   (measured cases: ADIS16405 runs)\n"
                    "       gmwm_study [--seeds N (20)] [--tuning (seeds 1..N, default) | --validation (1001..)]\n"
                    "                  [--first-seed S] [--penalty P] [--no-select] [--verbose]\n"
                    "Fits the true model to each simulated record (recovery) and selects among WN+RW, WN+kGM(+RW),\n"
