@@ -3,7 +3,6 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <cstdio>
 #include <random>
 #include <vector>
 
@@ -345,8 +344,6 @@ TEST(GmwmSelection, FindsAShortMemoryMeasurementNoise) {
     const GmwmSelection sel = selectGmwm(wv);
     ASSERT_GE(sel.best, 0);
     picked += sel.chosen().model.name() == "MA2+GM";
-    for (const auto& c : sel.fits) std::printf(" %s %.1f%s", c.model.name().c_str(), c.criterion, c.identified ? "" : "(u)");
-    std::printf(" -> %s\n", sel.chosen().model.name().c_str());
     const GmwmFit f = fitGmwm(wv, parseGmwmModel("MA2+GM"));
     ASSERT_TRUE(f.ok) << f.message;
     ASSERT_EQ(f.ma.size(), 2u);
@@ -388,4 +385,28 @@ TEST(GmwmDiscrete, PhiQdAndFolding) {
   // The stationary variance is kept by the GM recursion: Qd / (1 - Phi^2) = sigma^2.
   EXPECT_NEAR(d.Qd(0, 0) / (1 - d.Phi(0, 0) * d.Phi(0, 0)), 25e-8, 1e-15);
   EXPECT_THROW(discretize(f, 0), std::invalid_argument);
+}
+
+// An MA(q) measurement noise is folded into the white variance with its long-run equivalent N = sqrt(S(0) tau0):
+// no approximation note at dt >= q tau0, a note below.
+TEST(GmwmDiscrete, MovingAverageFoldedIntoWhite) {
+  GmwmFit f;
+  f.model = parseGmwmModel("MA2+GM");
+  f.theta = Eigen::VectorXd(5);
+  f.theta << std::log(4.0), 0.5, 0.25, std::log(1e-6), std::log(200.0);  // per sample; tau0 = 0.01 s
+  f.tau0 = 0.01;
+  f.N = std::sqrt(4.0 * 0.01) * 1.75;  // as fillSiValues: innovation density times |1 + sum theta|
+  f.gm = {{1e-3, 0, 2.0, 0}};
+  const DiscreteNoiseModel d = discretize(f, 0.05);
+  ASSERT_EQ(d.folded.size(), 1u);
+  EXPECT_EQ(d.folded[0], "ma2");
+  EXPECT_TRUE(d.approximation.empty());
+  EXPECT_NEAR(d.white_variance, f.N * f.N / 0.05, 1e-15);
+  // N^2 / dt is the model's AVAR far beyond the memory minus the GM: AVAR(m) m tau0 -> N^2 for the MA part.
+  GmwmFit ma_only;
+  ma_only.model = parseGmwmModel("MA2");
+  ma_only.theta = f.theta.head(3);
+  const int64_t m = 1000000;
+  EXPECT_NEAR(gmwmModelAvar(ma_only, 0.01, m) * m * 0.01 / (f.N * f.N), 1.0, 1e-5);
+  EXPECT_FALSE(discretize(f, 0.01).approximation.empty());  // dt = 1 sample < 2
 }

@@ -124,8 +124,9 @@ struct GmwmOptions {
   /// quantization / drift below are set).
   std::vector<GmwmModel> candidates;
   int max_gm = 3;
-  /// MA(q) measurement-noise candidates (docs/gmwm.md): each WN candidate again with MA(1) instead of WN; when the
-  /// selection then picks an MA(q) model, MA(q+1) versions are added, up to this order (0 = none).
+  /// MA(q) measurement-noise candidates (docs/gmwm.md; default candidate lists only): the WN candidates with at most
+  /// as many GM terms as the selected WN model, again with MA(1) instead of WN; while the best MA(q) criterion beats
+  /// the best of order q-1 (WN for q = 1), MA(q+1) versions are added, up to this order (0 = none).
   int max_ma = 4;
   bool quantization = false;    ///< default candidates also carry QN
   bool drift = false;           ///< default candidates also carry DR
@@ -151,8 +152,8 @@ struct GmwmSelection {
   int best = -1;               ///< index of the smallest criterion among ok fits
   const GmwmFit& chosen() const { return fits.at(static_cast<size_t>(best)); }
 };
-/// Fits every candidate and picks the smallest criterion among identified fits (among all ok fits when none is
-/// identified). best = -1 when none fitted.
+/// Fits every candidate (then the MA(q) ones, GmwmOptions::max_ma) and picks the smallest criterion among identified
+/// fits (among all ok fits when none is identified). best = -1 when none fitted.
 GmwmSelection selectGmwm(const WaveletVariance& wv, const GmwmOptions& options = {});
 
 // ---- Model Allan variance and the filter-ready state-space form ------------------------------------------------

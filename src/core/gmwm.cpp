@@ -231,12 +231,13 @@ double modelWvAt(const Layout& L, const Eigen::VectorXd& th, double tau) {
   return s;
 }
 
-/// Two-sided spectrum (sample units, f in cycles/sample) of the stochastic part, sin2 = sin^2(pi f).
-double spectrum(const Layout& L, const Eigen::VectorXd& th, double f, double sin2) {
+/// Two-sided spectrum (sample units, f in cycles/sample) of the stochastic part, sin2 = sin^2(pi f); ma_acf: the MA
+/// term's autocovariance (maAcf, computed once by the caller).
+double spectrum(const Layout& L, const Eigen::VectorXd& th, double f, double sin2, const std::vector<double>& ma_acf) {
   double s = 0;
   if (L.wn >= 0) s += std::exp(th[L.wn]);
   if (L.ma >= 0) {  // s2 |1 + sum theta_k e^{-i 2 pi f k}|^2 = gamma_0 + 2 sum gamma_h cos(2 pi f h)
-    const std::vector<double> g = maAcf(L, th);
+    const std::vector<double>& g = ma_acf;
     double v = g[0];
     for (size_t h = 1; h < g.size(); ++h) v += 2.0 * g[h] * std::cos(2.0 * M_PI * f * static_cast<double>(h));
     s += std::max(v, 0.0);
@@ -285,6 +286,7 @@ Eigen::MatrixXd gmwmCovariance(const WaveletVariance& wv, const GmwmModel& model
   const Layout L(model);
   const int J = static_cast<int>(wv.level.size());
   Eigen::MatrixXd C = Eigen::MatrixXd::Zero(J, J);
+  const std::vector<double> ma_acf = L.ma >= 0 ? maAcf(L, theta) : std::vector<double>();
   static const std::vector<double> cmean = [] {
     std::vector<double> c;
     for (int d = 0; d <= 9; ++d) c.push_back(periodMean(d));
@@ -298,7 +300,7 @@ Eigen::MatrixXd gmwmCovariance(const WaveletVariance& wv, const GmwmModel& model
       // envelope E(f) = S(f)^2 / (mj^2 mk^2 sin^4(pi f)); integrand = sin^4(pi f mj) sin^4(pi f mk) E(f)
       auto envelope = [&](double f, double* s2out) {
         const double sn = std::sin(M_PI * f), s2 = sn * sn;
-        const double S = spectrum(L, theta, f, s2);
+        const double S = spectrum(L, theta, f, s2, ma_acf);
         if (s2out) *s2out = s2;
         return S * S / (mj * mj * mk * mk * s2 * s2);
       };
@@ -740,13 +742,15 @@ GmwmSelection selectGmwm(const WaveletVariance& wv, const GmwmOptions& options) 
       }
   };
   pick();
-  // Short-memory measurement noise, forward in the order: the WN candidates again with MA(q) for WN, q = 1, 2, ...,
-  // while the best criterion among order q's fits (identified or not: a sub-sample GM standing in for the filter
-  // makes some unidentified) beats order q-1's (default candidate lists only).
-  if (options.candidates.empty()) {
+  // Short-memory measurement noise, forward in the order: the WN candidates with at most as many GM terms as the
+  // selected WN model again with MA(q) for WN (the MA describes short lags a WN model needs a GM for; it never asks
+  // for an extra GM), q = 1, 2, ..., while the best criterion among order q's fits (identified or not: a sub-sample GM
+  // standing in for the filter makes some unidentified) beats order q-1's (default candidate lists only).
+  if (options.candidates.empty() && sel.best >= 0) {
+    const int max_gm = sel.chosen().model.gauss_markov;
     std::vector<GmwmModel> white_cands;
     for (const auto& m : cands)
-      if (m.white) white_cands.push_back(m);
+      if (m.white && m.gauss_markov <= max_gm) white_cands.push_back(m);
     auto bestOfOrder = [&sel](int q) {
       double b = std::numeric_limits<double>::infinity();
       for (const auto& f : sel.fits)
