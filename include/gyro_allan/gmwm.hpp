@@ -173,8 +173,9 @@ std::vector<double> simulateGmwmFit(const GmwmFit& fit, double tau0, int64_t n, 
 /// is not a state but folded into the white variance as the white noise with the same long-run angle random walk:
 /// N_eq^2 / dt with N_eq^2 = sigma^2 tau0 (1 + phi0) / (1 - phi0), phi0 = exp(-tau0/tc) at the data interval tau0
 /// (the sampled AR(1)'s sum of autocovariances; 2 sigma^2 tc when tc >> tau0). Listed in `folded`.
-/// An MA(q) measurement noise is folded the same way (its N is already the long-run equivalent, S(0) tau0), listed
-/// as "maq"; at dt < q tau0 its lag correlations within q samples are lost, which `approximation` says.
+/// An MA(q) measurement noise is folded the same way (its N is already the long-run equivalent, N^2 = S(0) tau0),
+/// listed as "maq": right for the integrated angle; one step's variance and the correlation of neighbouring steps are
+/// off by O(q / k) at k = dt / tau0 samples per step, which `approximation` states when above 1 % (or k <= q).
 struct DiscreteNoiseModel {
   double dt = 0;
   Eigen::MatrixXd Phi, Qd;

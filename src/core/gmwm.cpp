@@ -847,14 +847,35 @@ DiscreteNoiseModel discretize(const GmwmFit& fit, double dt) {
     }
   }
   if (fit.model.moving_average > 0) {
-    // fit.N is the MA's long-run equivalent white noise (S(0) tau0): exact for the filter's increments at dt >= q tau0
-    // up to the q-sample edges, where the MA's correlation across steps (at most q of dt/tau0 lags) is dropped.
+    // fit.N is the MA's long-run equivalent white noise (N^2 = S(0) tau0): right for the angle it integrates to over
+    // many steps. The mean over one step of k = dt / tau0 > q samples has variance (S(0) - 2 sum_h h gamma_h / k) / k,
+    // i.e. N^2 / dt is off by the fraction e = 2 sum_h h gamma_h / (k S(0)), and neighbouring steps correlate by about
+    // e / 2 (the q-sample edges). Stated when |e| > 1 % or the step is within the memory (k <= q).
     const int q = fit.model.moving_average;
     d.folded.push_back("ma" + std::to_string(q));
     const double t0 = fit.tau0 > 0 ? fit.tau0 : dt;
-    if (dt < q * t0 * (1 - 1e-9))
-      d.approximation = "ma" + std::to_string(q) + " folded into white noise at a step below its memory (" +
-                        std::to_string(q) + " samples): its short-lag correlation is not modelled";
+    const double k = dt / t0;
+    const std::vector<double> g = maAutocovariance(fit.ma, 1.0);
+    double s0 = g[0], sh = 0;
+    for (size_t h = 1; h < g.size(); ++h) {
+      s0 += 2 * g[h];
+      sh += static_cast<double>(h) * g[h];
+    }
+    const std::string name = "ma" + std::to_string(q);
+    char buf[240];
+    if (k <= q * (1 + 1e-9)) {
+      std::snprintf(buf, sizeof buf,
+                    "%s folded into white noise at a step of %.3g samples, within its memory (%d samples): right for "
+                    "the integrated angle, not for one step's variance or its correlation with the next",
+                    name.c_str(), k, q);
+      d.approximation = buf;
+    } else if (s0 > 0 && std::fabs(2 * sh / (k * s0)) > 0.01) {
+      std::snprintf(buf, sizeof buf,
+                    "%s folded into white noise: one step's variance is %.1f %% below measurement_variance's white "
+                    "part and neighbouring steps correlate by ~%.3f",
+                    name.c_str(), 100 * 2 * sh / (k * s0), sh / (k * s0));
+      d.approximation = buf;
+    }
   }
   const int n = n_gm_states + (fit.K > 0 ? 1 : 0);
   d.Phi = Eigen::MatrixXd::Zero(n, n);
