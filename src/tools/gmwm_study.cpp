@@ -63,7 +63,7 @@ struct Tally {
   int runs = 0, fit_ok = 0;
   std::vector<int> within10_sigma, within10_tc, in2sd_sigma, in2sd_tc;
   int within10_N = 0, in2sd_N = 0;
-  int select_gm = 0, select_rw = 0, select_both = 0;
+  int select_gm = 0, select_rw = 0, select_both = 0, select_ma = 0;
 };
 
 // Measured cases: the ADIS16405 static runs (shared data; 100 Hz, 10000 s, deg/s). Per run and gyro axis: GMWM
@@ -430,6 +430,7 @@ int main(int argc, char** argv) {
           t.select_gm += g;
           t.select_rw += r;
           t.select_both += g && r;
+          t.select_ma += m.moving_average > 0;
           if (verbose) {
             std::printf("  seed %llu:", static_cast<unsigned long long>(seed));
             for (const auto& c : sel.fits)
@@ -448,7 +449,7 @@ int main(int argc, char** argv) {
       tg += buf;
     }
     std::printf("%-15s %4d | %-26s | %-26s | %-9d | ", s.name, t.runs, sg.c_str(), tg.c_str(), t.within10_N);
-    if (select) std::printf("%d / %d / %d\n", t.select_gm, t.select_rw, t.select_both);
+    if (select) std::printf("%d / %d / %d (MA chosen: %d)\n", t.select_gm, t.select_rw, t.select_both, t.select_ma);
     else std::printf("-\n");
     std::fflush(stdout);
   }
