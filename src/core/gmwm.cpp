@@ -149,7 +149,8 @@ std::string GmwmModel::name() const {
 }
 
 int GmwmModel::parameters() const {
-  return (white ? 1 : 0) + (moving_average > 0 ? 1 + moving_average : 0) + (quantization ? 1 : 0) + (random_walk ? 1 : 0) + (drift ? 1 : 0) + 2 * gauss_markov;
+  return (white ? 1 : 0) + (moving_average > 0 ? 1 + moving_average : 0) + (quantization ? 1 : 0) +
+         (random_walk ? 1 : 0) + (drift ? 1 : 0) + 2 * gauss_markov;
 }
 
 GmwmModel parseGmwmModel(const std::string& text) {
