@@ -38,6 +38,10 @@ struct QuantizedOutput {
 /// lattice.
 QuantizedOutput detectQuantizedOutput(const std::vector<double>& rate, double tau0);
 
+/// A pulse count: quantized, with >= 90 % of the counts on the two levels around the mean count (a counter whose
+/// noise is below one count; the sawtooth test's own gate).
+bool isPulseCount(const QuantizedOutput& q);
+
 /// The same on the longest of several gap-free segments.
 QuantizedOutput detectQuantizedOutput(const std::vector<std::vector<double>>& segments, double tau0);
 

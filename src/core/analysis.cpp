@@ -106,7 +106,7 @@ void AxisStages::prepare() {
   a.mean = static_cast<double>(sum / a.samples);
   a.duration_s = static_cast<double>(a.samples) * tau0;
   a.quantized = detectQuantizedOutput(segments, tau0);  // before spike removal
-  if (spikes_on && a.quantized.quantized && a.quantized.two_level_fraction >= 0.9) {
+  if (spikes_on && isPulseCount(a.quantized)) {
     // A pulse counter whose noise is below one count (>= 90 % of samples on the two counts around the mean): each
     // pulse is an isolated jump of one count and the spike rule would take every one of them (2 % of an undithered
     // RLG's samples, leaving N 1e-12 of the truth).
@@ -251,7 +251,7 @@ void AxisStages::check() {
 void AxisStages::pulseTimes() {
   AxisAnalysis& a = a_;
   const QuantizedOutput& q = a.quantized;
-  if (options_.method != "auto" || !q.quantized || q.two_level_fraction < 0.9 || q.sawtooth) return;
+  if (options_.method != "auto" || !isPulseCount(q) || q.sawtooth) return;
   a.has_pulse_times = true;
   a.pulse_times = reconstructPulseTimes(segments_[longest_], tau0_, q);
   if (!a.pulse_times.ok) return;
@@ -354,7 +354,7 @@ AxisAnalysis AxisStages::finish() {
     // across a few quanta in the record, and its rounding error is neither white nor a sawtooth): nothing explains
     // the raw misfit, which then stands.
     const QuantizedOutput& qo = a.quantized;
-    const bool slow_counter = qo.quantized && qo.two_level_fraction >= 0.9 && !qo.sawtooth && !(qo.line_to_floor > 0);
+    const bool slow_counter = isPulseCount(qo) && !qo.sawtooth && !(qo.line_to_floor > 0);
     if (bad(a.final_error.rms_log10, a.final_error.chi2_dof) && den.ok && !bad(den.rms_log10, den.chi2_dof) &&
         !slow_counter) {
       // The raw Allan curve is not the IEEE model's while the denoised signal is: the removed part is not white

@@ -297,4 +297,6 @@ QuantizedOutput detectQuantizedOutput(const std::vector<double>& rate, double ta
   return out;
 }
 
+bool isPulseCount(const QuantizedOutput& q) { return q.quantized && q.two_level_fraction >= kMinTwoLevel; }
+
 }  // namespace gyro_allan
