@@ -462,6 +462,21 @@ struct QnEstimate {
   int j_used = 0;
 };
 
+// Relative uncertainty of the lost quantization fraction 1 - V_Q_eff for a sawtooth (undithered pulse counter at a
+// constant rate). The free fit's share gamma / Q^2 uses white quantization's level response, but the sawtooth is a
+// line at f_saw = |mean rate| / pulse (pulse = Q sqrt(12)) broadened by the random walk of its phase, and the part of
+// that line's skirt below the split frequency is what the white shape misjudges. The skirt of a diffusion-broadened
+// line falls like (f_split / f_saw)^2, so that is the allowance on the share, times the white lost fraction 1 - V_Q.
+// No free constant; the form was chosen on tuning records (seeds 1-2 of the simulator, coverage_study seeds 1-20),
+// where the share's actual error was ~0.25 at f_saw / f_split = 2.1 (2 deg/h) and 0.03-0.07 at 5-8
+// (docs/calibration.md, "Q of a sawtooth").
+double sawtoothLostSigma(const SplitAngleFactors& fac, double q2, double mean_rate_abs, double split_frequency_hz) {
+  if (!(q2 > 0)) return 0.0;
+  const double f_saw = mean_rate_abs / std::sqrt(12.0 * q2);
+  const double skirt = f_saw > 0 ? std::min(1.0, std::pow(split_frequency_hz / f_saw, 2)) : 1.0;
+  return (1.0 - fac.v_q) * skirt;
+}
+
 // Q (angle) and N (levels) depend on each other weakly: iterate. With the white-quantization model the levels
 // near the crossover have a known quantization share Q^2 a_j ("fixed"). A quantization error that is not white
 // (sawtooth of a pulse counter at constant rate) leaves the coarse levels nearly clean, and subtracting the white
@@ -470,16 +485,17 @@ struct QnEstimate {
 // 3 sigma. For non-white quantization the lost fraction 1 - V_Q is scaled by the same gamma / Q^2.
 // Sets r->quantization_white, quantization_level_share and quantization_kept.
 QnEstimate iterateQn(const LevelModel& lm, const SplitAngleFactors& fac, const AngleVariance& av, double tau0,
-                     double n2_start, const WaveletSplitOptions& options, WaveletSplitResult* r) {
+                     double n2_start, double mean_rate_abs, const WaveletSplitOptions& options, WaveletSplitResult* r) {
   QnEstimate e;
   e.n2 = n2_start;
   const double var_a = av.var, var_a_sigma = av.sigma;
   const double kFreeFitMaxRatio = options.free_fit_max_ratio;
   e.j_used = lm.J + 1;
-  double v_q_eff = fac.v_q;
+  double v_q_eff = fac.v_q, lost_sigma = 0;
   for (int it = 0; it < 5; ++it) {
     e.q2 = std::max(0.0, (var_a - fac.v_n * e.n2 * tau0) / v_q_eff);
-    e.q2_sigma = std::sqrt(var_a_sigma * var_a_sigma + std::pow(fac.v_n * tau0 * e.n2_sigma, 2)) / v_q_eff;
+    e.q2_sigma = std::sqrt(var_a_sigma * var_a_sigma + std::pow(fac.v_n * tau0 * e.n2_sigma, 2) +
+                           std::pow(e.q2 * lost_sigma, 2)) / v_q_eff;
     const LevelFit fixed = lm.fit(false, e.q2, options.max_quantization_share, e.n2);
     const LevelFit freef = lm.fit(true, e.q2, kFreeFitMaxRatio, e.n2);
     r->quantization_white = !(freef.ok && freef.gamma_sigma > 0 && std::fabs(freef.gamma - e.q2) > 3.0 * freef.gamma_sigma);
@@ -491,6 +507,7 @@ QnEstimate iterateQn(const LevelModel& lm, const SplitAngleFactors& fac, const A
       e.j_used = use.j_start;
     }
     const double lost = (1.0 - fac.v_q) * (r->quantization_white ? 1.0 : std::min(1.0, r->quantization_level_share));
+    lost_sigma = r->quantization_white ? 0.0 : sawtoothLostSigma(fac, e.q2, mean_rate_abs, r->split_frequency_hz);
     v_q_eff = 1.0 - lost;
   }
   r->quantization_kept = v_q_eff;
@@ -606,7 +623,9 @@ WaveletSplitResult waveletSplit(const std::vector<double>& rate, double tau0, co
   double n2 = r.n_allan * r.n_allan;
   if (!(n2 > 0) && J > 0) n2 = lv.var[static_cast<size_t>(J - 1)] * tau0;  // start from the coarsest level
   describeLevels(lv, J, tau0, &r);
-  const QnEstimate qn = iterateQn(lm, fac, av, tau0, n2, options, &r);
+  const double mean_rate_abs =
+      std::fabs(static_cast<double>(std::accumulate(rate.begin(), rate.end(), 0.0L) / static_cast<long double>(rate.size())));
+  const QnEstimate qn = iterateQn(lm, fac, av, tau0, n2, mean_rate_abs, options, &r);
   recordQn(lm, qn, fac, av, tau0, &r);
 
   reportCoefficients(options, qn, &r);
