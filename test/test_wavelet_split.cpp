@@ -152,16 +152,20 @@ TEST(WaveletSplit, RecoversDeclaredQAndNSawtooth) {
   }
 }
 
-TEST(WaveletSplit, SawtoothQSigmaCoversTheSplitsBias) {
+TEST(WaveletSplit, SawtoothSigmasCoverTheSplitsBias) {
   // At 2 deg/h the sawtooth's line (1.65 Hz) sits near the split frequency, and the white-shaped level model misjudges
   // how much of it the split loses: Q came out 0.15-0.27 % low with a sigma of 0.06 % (coverage_study seeds 1-20,
-  // 0 of 20 inside the 95 % interval). The lost fraction's allowance (f_split / f_saw)^2 covers it. Sum of z^2 over 8
-  // records (the coverage_study class rlg_saw2 at 1 h, seeds 11..18) against chi-squared with 8 dof, central 99.7 %.
-  double z2 = 0;
+  // 0 of 20 inside the 95 % interval), and N's coarse levels carry the same skirt (N ~1.3 % low, rms z 1.4). The
+  // allowance (f_split / f_saw)^2 on the lost fraction and on the levels' quantization part covers both. Sum of z^2
+  // over 8 records (the coverage_study class rlg_saw2 at 1 h, seeds 11..18) against chi-squared with 8 dof, central
+  // 99.7 %, [0.86, 23.6]. Measured: Q 11.5 (69.8 without the allowance: fails), N 6.5 (13.1 without: N's check only
+  // guards against gross miscalibration here; the 2 h coverage_study classes show the difference, docs/calibration.md).
+  constexpr double kN2 = 0.002 * M_PI / 180.0 / 60.0;
+  double zq2 = 0, zn2 = 0;
   for (uint64_t seed = 11; seed <= 18; ++seed) {
     AxisNoise ax;
     ax.quantization = kQ;
-    ax.angle_random_walk = 0.002 * M_PI / 180.0 / 60.0;
+    ax.angle_random_walk = kN2;
     ax.bias_instability = 0.005 * kDegPerHour;
     ax.dither = false;
     ax.input_rate = 2 * kDegPerHour;
@@ -171,13 +175,19 @@ TEST(WaveletSplit, SawtoothQSigmaCoversTheSplitsBias) {
     ASSERT_TRUE(r.ok) << r.message;
     EXPECT_FALSE(r.quantization_white) << seed;
     const Coefficient& q = r.terms[kQuantization];
+    const Coefficient& n = r.terms[kAngleRandomWalk];
     EXPECT_NEAR(q.value, kQ, 0.005 * kQ) << seed;
+    EXPECT_NEAR(n.value, kN2, 0.10 * kN2) << seed;
     ASSERT_GT(q.sigma, 0);
-    z2 += std::pow((q.value - kQ) / q.sigma, 2);
+    ASSERT_GT(n.sigma, 0);
+    zq2 += std::pow((q.value - kQ) / q.sigma, 2);
+    zn2 += std::pow((n.value - kN2) / n.sigma, 2);
   }
-  std::printf("Q at 2 deg/h: sum z^2 = %.1f on 8 records; accepted [0.86, 23.6]\n", z2);
-  EXPECT_GE(z2, 0.86) << "Q's sigma is far wider than its error";
-  EXPECT_LE(z2, 23.6) << "Q's sigma does not cover its error";
+  std::printf("2 deg/h: sum z^2 of Q = %.1f, of N = %.1f on 8 records; accepted [0.86, 23.6]\n", zq2, zn2);
+  EXPECT_GE(zq2, 0.86) << "Q's sigma is far wider than its error";
+  EXPECT_LE(zq2, 23.6) << "Q's sigma does not cover its error";
+  EXPECT_GE(zn2, 0.86) << "N's sigma is far wider than its error";
+  EXPECT_LE(zn2, 23.6) << "N's sigma does not cover its error";
 }
 
 TEST(WaveletSplit, MadScalingKeepsSawtoothPulses) {

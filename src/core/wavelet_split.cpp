@@ -470,11 +470,13 @@ struct QnEstimate {
 // No free constant; the form was chosen on tuning records (seeds 1-2 of the simulator, coverage_study seeds 1-20),
 // where the share's actual error was ~0.25 at f_saw / f_split = 2.1 (2 deg/h) and 0.03-0.07 at 5-8
 // (docs/calibration.md, "Q of a sawtooth").
+double sawtoothSkirt(double q2, double mean_rate_abs, double split_frequency_hz) {
+  const double f_saw = q2 > 0 ? mean_rate_abs / std::sqrt(12.0 * q2) : 0.0;
+  return f_saw > 0 ? std::min(1.0, std::pow(split_frequency_hz / f_saw, 2)) : 1.0;
+}
 double sawtoothLostSigma(const SplitAngleFactors& fac, double q2, double mean_rate_abs, double split_frequency_hz) {
   if (!(q2 > 0)) return 0.0;
-  const double f_saw = mean_rate_abs / std::sqrt(12.0 * q2);
-  const double skirt = f_saw > 0 ? std::min(1.0, std::pow(split_frequency_hz / f_saw, 2)) : 1.0;
-  return (1.0 - fac.v_q) * skirt;
+  return (1.0 - fac.v_q) * sawtoothSkirt(q2, mean_rate_abs, split_frequency_hz);
 }
 
 // Q (angle) and N (levels) depend on each other weakly: iterate. With the white-quantization model the levels
@@ -511,6 +513,18 @@ QnEstimate iterateQn(const LevelModel& lm, const SplitAngleFactors& fac, const A
     v_q_eff = 1.0 - lost;
   }
   r->quantization_kept = v_q_eff;
+  if (!r->quantization_white && e.n2 > 0) {
+    // N's levels carry the sawtooth's skirt too (the free fit's gamma a_j, white-shaped): the same relative allowance
+    // on that part of them, rho = (quantization part) / (ARW part) summed over the levels N used.
+    double qa = 0, nb = 0;
+    for (int j = e.j_used; j <= lm.J; ++j) {
+      const auto& rj = lm.resp[static_cast<size_t>(j - 1)];
+      qa += std::min(1.0, r->quantization_level_share) * e.q2 * rj[kQuantization];
+      nb += e.n2 * rj[kAngleRandomWalk];
+    }
+    const double skirt = sawtoothSkirt(e.q2, mean_rate_abs, r->split_frequency_hz);
+    if (nb > 0) e.n2_sigma = std::hypot(e.n2_sigma, skirt * (qa / nb) * e.n2);
+  }
   return e;
 }
 
