@@ -149,6 +149,7 @@ TEST(NodeletClosedLoop, SameAsAnalyzeBagLiveControlSaveLatched) {
     EXPECT_EQ(stat((dir + f).c_str(), &st), 0) << dir << f;
   const YAML::Node saved_report = YAML::LoadFile(dir + "/report.yaml");
   EXPECT_EQ(saved_report["axes"]["x"]["samples"].as<int64_t>(), r600.samples);
+  EXPECT_EQ(saved_report["method"].as<std::string>(), "auto");  // as analyze_bag's report without --method
 
   // A subscriber that comes late gets the last result at once (latched ~noise).
   Latest<gyro_allan::NoiseReport> late(h.nh, kNode + "/noise", 1);

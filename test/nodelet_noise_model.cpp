@@ -225,7 +225,8 @@ TEST(NodeletNoiseModel, SameAsAnalyzeBagLatchedSaved) {
       << h.diag.message("noise model");
   EXPECT_EQ(h.diag.value("filter rate (Hz, 0 = data rate only)"), kFilterRate);
 
-  // ~save writes noise_model.yaml through analyze_bag's writer: the same axes as analyze_bag's file.
+  // ~save writes noise_model.yaml through analyze_bag's writer: the same axes as analyze_bag's file; its report.yaml
+  // names the method as analyze_bag --method gmwm --filter-rate 20 does ("gmwm", not "auto").
   const std_srvs::Trigger::Response saved = trigger(kNode, "save");
   ASSERT_TRUE(saved.success) << saved.message;
   const std::string dir = savedDir(saved.message);
@@ -237,6 +238,9 @@ TEST(NodeletNoiseModel, SameAsAnalyzeBagLatchedSaved) {
   b << yaml["axes"];
   EXPECT_EQ(std::string(a.c_str()), std::string(b.c_str()));
   EXPECT_EQ(saved_yaml["sources"][0].as<std::string>(), "live topic /imu");
+  const YAML::Node bag_report = YAML::LoadFile(out + "/report.yaml");
+  EXPECT_EQ(bag_report["method"].as<std::string>(), "gmwm");
+  EXPECT_EQ(YAML::LoadFile(dir + "/report.yaml")["method"].as<std::string>(), bag_report["method"].as<std::string>());
 
   // dynamic_reconfigure: a filter rate turns the GMWM stage on even when gmwm is asked off (as analyze_bag
   // --filter-rate implies --method gmwm); with both off the next window publishes no ~noise_model.

@@ -1,9 +1,10 @@
-// Unit tests of the nodelet's message conversions (src/ros, no ROS master): ~noise_model's AxisNoiseModel from a hand-built core ReportedNoiseModel field by field.
+// Unit tests of the nodelet's message conversions (src/ros, no ROS master): ~noise_model's AxisNoiseModel from a hand-built core ReportedNoiseModel field by field, report.yaml's method.
 #include <gtest/gtest.h>
 
 #include <string>
 #include <vector>
 
+#include "../src/ros/analyzer_ros.hpp"
 #include "../src/ros/noise_model_msg.hpp"
 
 namespace {
@@ -176,6 +177,23 @@ TEST(RosConversion, FailedAxisCarriesOnlyItsReason) {
   EXPECT_TRUE(m.candidates.empty());
   EXPECT_TRUE(m.discrete.empty());
   EXPECT_EQ(m.continuous.angle_random_walk.value, 0.0);
+}
+
+// report.yaml's method as analyze_bag writes it for the equivalent options: --method gmwm -> "gmwm" (with or without
+// --filter-rate), --method joint_fit / wavelet_split -> that name, no option -> "auto".
+TEST(RosConversion, ReportMethodAsAnalyzeBag) {
+  gyro_allan::AnalyzerParams p;
+  EXPECT_EQ(gyro_allan::reportMethod(p), "auto");
+  p.online.pipeline.analysis.gmwm = true;
+  EXPECT_EQ(gyro_allan::reportMethod(p), "gmwm");
+  p.filter_rate = 20;
+  EXPECT_EQ(gyro_allan::reportMethod(p), "gmwm");
+  p.method = "joint_fit";
+  EXPECT_EQ(gyro_allan::reportMethod(p), "joint_fit");
+  p.method = "wavelet_split";
+  p.online.pipeline.analysis.gmwm = false;
+  p.filter_rate = 0;
+  EXPECT_EQ(gyro_allan::reportMethod(p), "wavelet_split");
 }
 
 }  // namespace

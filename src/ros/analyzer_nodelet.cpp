@@ -174,6 +174,7 @@ void AnalyzerNodelet::publish(const OnlineResult& r, double temperature) {
   }
   std::lock_guard<std::mutex> lock(mutex_);
   last_good_ = r;
+  last_good_params_ = p;
   last_report_ = report;
   have_good_ = true;
   if (with_model) {
@@ -203,7 +204,7 @@ bool AnalyzerNodelet::analyzeService(std_srvs::Trigger::Request&, std_srvs::Trig
 bool AnalyzerNodelet::saveService(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
   OnlineResult r;
   std::string topic;
-  const AnalyzerParams p = params();
+  AnalyzerParams p;  // those the window was analysed and published with: the report's method, the filter rate
   {
     std::lock_guard<std::mutex> lock(mutex_);
     if (!have_good_) {
@@ -212,6 +213,7 @@ bool AnalyzerNodelet::saveService(std_srvs::Trigger::Request&, std_srvs::Trigger
       return true;
     }
     r = last_good_;
+    p = last_good_params_;
     topic = topic_;
   }
   std::string dir = p.save_dir;

@@ -415,6 +415,10 @@ sensor_msgs::Image plotMessage(const PipelineResult& r, const NoiseReport& repor
   return msg;
 }
 
+std::string reportMethod(const AnalyzerParams& p) {
+  return p.online.pipeline.analysis.gmwm && p.method == "auto" ? "gmwm" : p.method;
+}
+
 ReportMeta liveReportMeta(const AnalyzerParams& p, const std::string& topic) {
   ReportMeta meta;
   meta.sources.push_back("live topic " + topic);
@@ -423,7 +427,7 @@ ReportMeta liveReportMeta(const AnalyzerParams& p, const std::string& topic) {
   meta.input = ao.input == InputKind::Rate ? "rate" : ao.angle_increments ? "angle_increment" : "angle";
   meta.input_units = ao.input == InputKind::Rate ? "rad/s" : "rad";
   meta.tau_grid = tauGridName(ao.deviation.grid);
-  meta.method = p.method;
+  meta.method = reportMethod(p);
   meta.confidence = ao.deviation.confidence;
   return meta;
 }

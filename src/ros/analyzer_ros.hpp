@@ -67,7 +67,10 @@ AllanCurve toCurve(const AxisAnalysis& a, const std_msgs::Header& header);
 sensor_msgs::Image plotMessage(const PipelineResult& r, const NoiseReport& report, const AnalyzerParams& p);
 /// Mean of a job's temperature readings (NaN when none).
 double meanTemperature(const OnlineJob& job);
-/// The report's description of the live input (sources, topic, units) for ~save.
+/// report.yaml's "method" for these params, as analyze_bag names its --method: "gmwm" for auto with the GMWM stage on
+/// (~gmwm or ~filter_rate > 0; analyze_bag --method gmwm), else ~method (the GMWM stage does not change the answer).
+std::string reportMethod(const AnalyzerParams& p);
+/// The report's description of the live input (sources, topic, units, method: reportMethod) for ~save.
 ReportMeta liveReportMeta(const AnalyzerParams& p, const std::string& topic);
 
 /// State the diagnostics read (a copy taken under the nodelet's lock).
