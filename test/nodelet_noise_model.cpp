@@ -198,6 +198,7 @@ TEST(NodeletNoiseModel, SameAsAnalyzeBagLatchedSaved) {
   ASSERT_TRUE(r.success) << r.message;
   ASSERT_TRUE(waitFor(60.0, [&] { return h.models.count() > 0; })) << "no ~noise_model after ~analyze";
   const gyro_allan::NoiseModel m = h.models.last();
+  EXPECT_EQ(m.status, gyro_allan::NoiseModel::STATUS_CURRENT);
   EXPECT_EQ(m.axes.size(), 3u);
   EXPECT_NEAR(m.rate_hz, 100.0, 1e-6);
   ASSERT_EQ(m.sources.size(), 1u);
@@ -243,7 +244,8 @@ TEST(NodeletNoiseModel, SameAsAnalyzeBagLatchedSaved) {
   EXPECT_EQ(YAML::LoadFile(dir + "/report.yaml")["method"].as<std::string>(), bag_report["method"].as<std::string>());
 
   // dynamic_reconfigure: a filter rate turns the GMWM stage on even when gmwm is asked off (as analyze_bag
-  // --filter-rate implies --method gmwm); with both off the next window publishes no ~noise_model.
+  // --filter-rate implies --method gmwm); with both off the latched model is replaced by one saying "off" (no axes),
+  // which a late subscriber gets, and the next window publishes no ~noise_model.
   auto gmwmAfter = [](bool gmwm, double filter_rate) {
     dynamic_reconfigure::Config applied;
     EXPECT_TRUE(reconfigure(kNode, {{"filter_rate", filter_rate}}, {{"gmwm", gmwm}}, &applied));
@@ -254,9 +256,21 @@ TEST(NodeletNoiseModel, SameAsAnalyzeBagLatchedSaved) {
   };
   EXPECT_TRUE(gmwmAfter(false, 50.0));
   EXPECT_TRUE(waitFor(5.0, [&] { return h.diag.value("filter rate (Hz, 0 = data rate only)") == 50.0; }));
+  EXPECT_EQ(h.models.count(), 1) << "~noise_model published without an analysis";
   EXPECT_FALSE(gmwmAfter(false, 0.0));
   EXPECT_TRUE(waitFor(5.0, [&] { return h.diag.message("noise model") == "GMWM off (~gmwm)"; }))
       << h.diag.message("noise model");
+  EXPECT_TRUE(waitFor(5.0, [&] { return h.models.count() == 2; })) << "no \"off\" ~noise_model after ~gmwm off";
+  const gyro_allan::NoiseModel off = h.models.last();
+  EXPECT_EQ(off.status, gyro_allan::NoiseModel::STATUS_OFF);
+  EXPECT_TRUE(off.axes.empty());
+  EXPECT_EQ(off.header.frame_id, m.header.frame_id);
+  {
+    Latest<gyro_allan::NoiseModel> late(h.nh, kNode + "/noise_model", 1);
+    EXPECT_TRUE(waitFor(10.0, [&] { return late.count() > 0; })) << "late subscriber got no ~noise_model";
+    EXPECT_EQ(late.last().status, gyro_allan::NoiseModel::STATUS_OFF) << "a late subscriber still gets the old model";
+    EXPECT_TRUE(late.last().axes.empty());
+  }
   const int models_before = h.models.count();
   const double analyses = h.diag.value("analyses (total)");
   ASSERT_TRUE(trigger(kNode, "analyze").success);

@@ -1,4 +1,4 @@
-// Unit tests of the nodelet's message conversions (src/ros, no ROS master): ~noise_model's AxisNoiseModel from a hand-built core ReportedNoiseModel field by field, report.yaml's method.
+// Unit tests of the nodelet's message conversions (src/ros, no ROS master): ~noise_model's AxisNoiseModel from a hand-built core ReportedNoiseModel field by field, the "off" message, report.yaml's method.
 #include <gtest/gtest.h>
 
 #include <string>
@@ -177,6 +177,18 @@ TEST(RosConversion, FailedAxisCarriesOnlyItsReason) {
   EXPECT_TRUE(m.candidates.empty());
   EXPECT_TRUE(m.discrete.empty());
   EXPECT_EQ(m.continuous.angle_random_walk.value, 0.0);
+}
+
+TEST(RosConversion, NoiseModelOffSaysSo) {
+  const gyro_allan::NoiseModel m = gyro_allan::noiseModelOff(ros::Time(12.5), "imu_link");
+  EXPECT_EQ(m.status, gyro_allan::NoiseModel::STATUS_OFF);
+  EXPECT_EQ(m.status, "off");
+  EXPECT_EQ(m.header.stamp, ros::Time(12.5));
+  EXPECT_EQ(m.header.frame_id, "imu_link");
+  EXPECT_TRUE(m.axes.empty());
+  EXPECT_TRUE(m.sources.empty());
+  EXPECT_EQ(m.rate_hz, 0.0);
+  EXPECT_EQ(gyro_allan::NoiseModel::STATUS_CURRENT, "current");
 }
 
 // report.yaml's method as analyze_bag writes it for the equivalent options: --method gmwm -> "gmwm" (with or without

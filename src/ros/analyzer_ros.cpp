@@ -350,6 +350,7 @@ NoiseModel toNoiseModel(const OnlineResult& r, const AnalyzerParams& p, const st
   NoiseModel m;
   m.header.stamp = fromNs(r.last_ns);
   m.header.frame_id = frame_id;
+  m.status = NoiseModel::STATUS_CURRENT;
   m.window_start = fromNs(r.first_ns);
   m.window_end = fromNs(r.last_ns);
   m.rate_hz = r.result.tau0 > 0 ? 1.0 / r.result.tau0 : 0;
@@ -357,6 +358,14 @@ NoiseModel toNoiseModel(const OnlineResult& r, const AnalyzerParams& p, const st
   m.sources = sources;
   for (const AxisAnalysis& a : r.result.gyro)
     if (a.has_gmwm) m.axes.push_back(toAxisNoiseModel(a.axis, axisNoiseModel(a, p.filter_rate)));
+  return m;
+}
+
+NoiseModel noiseModelOff(const ros::Time& stamp, const std::string& frame_id) {
+  NoiseModel m;
+  m.header.stamp = stamp;
+  m.header.frame_id = frame_id;
+  m.status = NoiseModel::STATUS_OFF;
   return m;
 }
 

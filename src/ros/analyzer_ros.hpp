@@ -59,6 +59,8 @@ NoiseReport toNoiseReport(const OnlineResult& r, const AnalyzerParams& p, const 
 /// copied from axisNoiseModel (io/noise_model_yaml.hpp), the source of noise_model.yaml too; sources as there.
 NoiseModel toNoiseModel(const OnlineResult& r, const AnalyzerParams& p, const std::string& frame_id,
                         const std::vector<std::string>& sources);
+/// The ~noise_model message that replaces the latched model when ~gmwm is turned off: status "off", no axes.
+NoiseModel noiseModelOff(const ros::Time& stamp, const std::string& frame_id);
 /// True when some gyro axis of the result carries a GMWM stage (then ~noise_model and ~save's noise_model.yaml).
 bool hasNoiseModel(const PipelineResult& r);
 /// ~allan/<axis> message of one axis.
