@@ -4,51 +4,26 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <map>
-#include <mutex>
 #include <random>
 #include <string>
 
-#include <diagnostic_msgs/DiagnosticArray.h>
 #include <ros/ros.h>
 #include <sensor_msgs/Imu.h>
-#include <std_srvs/Trigger.h>
+
+#include "nodelet_util.hpp"
 
 namespace {
 
-class Probe {
- public:
-  Probe() {
-    pub_ = nh_.advertise<sensor_msgs::Imu>("imu", 10000);
-    sub_ = nh_.subscribe("/diagnostics", 100, &Probe::onDiag, this);
-  }
-  void onDiag(const diagnostic_msgs::DiagnosticArray::ConstPtr& msg) {
-    std::lock_guard<std::mutex> l(mutex_);
-    for (const auto& s : msg->status) {
-      if (s.name.rfind("gyro_allan/badparam_analyzer: ", 0) != 0) continue;
-      for (const auto& kv : s.values) values_[kv.key] = kv.value;
-      std::string all = s.message;
-      for (const auto& kv : s.values) all += "\n" + kv.value;
-      texts_[s.name.substr(s.name.find(": ") + 2)] = all;
-    }
-  }
-  double value(const std::string& key) {
-    std::lock_guard<std::mutex> l(mutex_);
-    auto it = values_.find(key);
-    return it == values_.end() ? std::nan("") : std::atof(it->second.c_str());
-  }
-  /// A status's message and values as one text.
-  std::string text(const std::string& status) {
-    std::lock_guard<std::mutex> l(mutex_);
-    return texts_[status];
-  }
-  ros::Publisher pub_;
+using namespace nodelet_test;
 
- private:
-  ros::NodeHandle nh_;
-  ros::Subscriber sub_;
-  std::mutex mutex_;
-  std::map<std::string, std::string> values_, texts_;
+/// The test's view of the nodelet: its IMU input and diagnostics.
+struct Probe {
+  ros::NodeHandle nh;
+  ros::Publisher pub_ = nh.advertise<sensor_msgs::Imu>("imu", 10000);
+  Diagnostics diag{nh, "badparam_analyzer", 100};
+  double value(const std::string& key) { return diag.value(key); }
+  /// A status's message and values as one text.
+  std::string text(const std::string& status) { return diag.text(status); }
 };
 
 }  // namespace
@@ -65,12 +40,8 @@ TEST(NodeletBadParams, ComesUpWithDocumentedReplacements) {
   ros::WallRate r(100);
   for (int i = 0; i < n; i += 2) {
     for (int j = i; j < i + 2; ++j) {
-      sensor_msgs::Imu m;
-      m.header.stamp = ros::Time(500.0) + ros::Duration(j / 200.0);
-      m.angular_velocity.x = g(rng);
-      m.angular_velocity.y = g(rng);
-      m.angular_velocity.z = g(rng);
-      p.pub_.publish(m);
+      const double x = g(rng), y = g(rng), z = g(rng);
+      p.pub_.publish(imuMessage(ros::Time(500.0) + ros::Duration(j / 200.0), x, y, z, ""));
     }
     r.sleep();
   }
@@ -95,9 +66,9 @@ TEST(NodeletBadParams, ComesUpWithDocumentedReplacements) {
   EXPECT_EQ(p.value("filter rate (Hz, 0 = data rate only)"), 0.0);  // filter_rate -20 -> 0 (data rate only)
   EXPECT_NE(p.text("noise model").find("GMWM off (~gmwm)"), std::string::npos);  // gmwm "on" -> default false
   // ... and it analyses normally: the 6 s window on request (~analyze), at the rate from the stamps.
-  std_srvs::Trigger t;
-  ASSERT_TRUE(ros::service::call("/badparam_analyzer/analyze", t));
-  EXPECT_TRUE(t.response.success) << t.response.message;
+  std_srvs::Trigger::Response t;
+  ASSERT_TRUE(callTrigger("badparam_analyzer", "analyze", &t));
+  EXPECT_TRUE(t.success) << t.message;
   const ros::WallTime end2 = ros::WallTime::now() + ros::WallDuration(20.0);
   while (ros::WallTime::now() < end2 && std::isnan(p.value("nominal rate (Hz)"))) ros::WallDuration(0.1).sleep();
   EXPECT_NEAR(p.value("nominal rate (Hz)"), 200.0, 1.0);
@@ -105,13 +76,4 @@ TEST(NodeletBadParams, ComesUpWithDocumentedReplacements) {
   EXPECT_EQ(p.value("gaps (total)"), 0.0);
 }
 
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  ros::init(argc, argv, "nodelet_bad_params");
-  ros::AsyncSpinner spinner(1);
-  spinner.start();
-  const int rc = RUN_ALL_TESTS();
-  spinner.stop();
-  ros::shutdown();
-  return rc;
-}
+int main(int argc, char** argv) { return nodelet_test::runRostest(argc, argv, "nodelet_bad_params", 1); }

@@ -5,125 +5,44 @@
 
 #include <sys/stat.h>
 
+#include <algorithm>
 #include <cmath>
-#include <cstdlib>
-#include <map>
-#include <mutex>
 #include <string>
 
-#include <diagnostic_msgs/DiagnosticArray.h>
-#include <dynamic_reconfigure/Reconfigure.h>
 #include <gyro_allan/NoiseReport.h>
 #include <ros/ros.h>
-#include <rosbag/bag.h>
-#include <rosbag/view.h>
 #include <sensor_msgs/Imu.h>
 #include <sensor_msgs/Temperature.h>
-#include <std_srvs/Trigger.h>
 #include <yaml-cpp/yaml.h>
 
+#include "nodelet_util.hpp"
+
 namespace {
+
+using namespace nodelet_test;
 
 const std::string kNode = "loop_analyzer";
 const std::string kOut = std::string(GYRO_ALLAN_TEST_OUT) + "/nodelet_closed_loop";
 const std::string kTools = GYRO_ALLAN_TOOL_DIR;
 
-int sh(const std::string& cmd) { return std::system(cmd.c_str()); }
+/// The test's view of the nodelet: its IMU and temperature input, ~noise and diagnostics.
+struct Loop {
+  ros::NodeHandle nh;
+  ros::Publisher imu = nh.advertise<sensor_msgs::Imu>("imu", 300000);
+  ros::Publisher temp = nh.advertise<sensor_msgs::Temperature>("temperature", 10000);
+  Latest<gyro_allan::NoiseReport> reports{nh, kNode + "/noise"};
+  Diagnostics diag{nh, kNode};
 
-class Loop {
- public:
-  Loop() {
-    imu_pub_ = nh_.advertise<sensor_msgs::Imu>("imu", 300000);
-    temp_pub_ = nh_.advertise<sensor_msgs::Temperature>("temperature", 10000);
-    noise_sub_ = nh_.subscribe(kNode + "/noise", 10, &Loop::onNoise, this);
-    diag_sub_ = nh_.subscribe("/diagnostics", 1000, &Loop::onDiag, this);
-  }
-  bool waitForNodelet(double timeout_s) {
-    return waitFor(timeout_s, [&] {
-      return imu_pub_.getNumSubscribers() > 0 && temp_pub_.getNumSubscribers() > 0 &&
-             ros::service::exists("/" + kNode + "/analyze", false);
-    });
-  }
-  template <class F>
-  bool waitFor(double timeout_s, F done) {
-    const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(timeout_s);
-    while (ros::WallTime::now() < end) {
-      if (done()) return true;
-      ros::WallDuration(0.02).sleep();
-    }
-    return done();
-  }
-  void onNoise(const gyro_allan::NoiseReport::ConstPtr& m) {
-    std::lock_guard<std::mutex> l(mutex_);
-    ++reports_;
-    last_ = *m;
-  }
-  void onDiag(const diagnostic_msgs::DiagnosticArray::ConstPtr& msg) {
-    std::lock_guard<std::mutex> l(mutex_);
-    for (const auto& s : msg->status)
-      if (s.name.rfind("gyro_allan/" + kNode + ": ", 0) == 0) {
-        for (const auto& kv : s.values) values_[kv.key] = kv.value;
-        hwid_ = s.hardware_id;
-      }
-  }
-  double value(const std::string& key) {
-    std::lock_guard<std::mutex> l(mutex_);
-    auto it = values_.find(key);
-    return it == values_.end() ? std::nan("") : std::atof(it->second.c_str());
-  }
-  int reports() {
-    std::lock_guard<std::mutex> l(mutex_);
-    return reports_;
-  }
-  gyro_allan::NoiseReport last() {
-    std::lock_guard<std::mutex> l(mutex_);
-    return last_;
-  }
-  std::string hardwareId() {
-    std::lock_guard<std::mutex> l(mutex_);
-    return hwid_;
-  }
-  static std_srvs::Trigger::Response call(const std::string& service) {
-    std_srvs::Trigger t;
-    EXPECT_TRUE(ros::service::call("/" + kNode + "/" + service, t)) << service;
-    return t.response;
-  }
-  /// Publishes every IMU and temperature message of a bag (bag order) and waits until the nodelet has them all.
-  /// Returns the number of IMU messages.
-  int64_t play(const std::string& bag_path) {
-    const double before = value("samples received (total)"), temps_before = value("temperature readings (total)");
-    rosbag::Bag bag(bag_path);
-    rosbag::View view(bag);
-    int64_t n = 0, nt = 0;
-    for (const rosbag::MessageInstance& m : view) {
-      if (auto imu = m.instantiate<sensor_msgs::Imu>()) imu_pub_.publish(*imu), ++n;
-      else if (auto t = m.instantiate<sensor_msgs::Temperature>()) temp_pub_.publish(*t), ++nt;
-    }
-    EXPECT_TRUE(waitFor(120.0, [&] {
-      return value("samples received (total)") == (std::isnan(before) ? 0 : before) + static_cast<double>(n) &&
-             value("temperature readings (total)") == (std::isnan(temps_before) ? 0 : temps_before) + static_cast<double>(nt);
-    })) << "the nodelet did not receive every message of " << bag_path << " (" << n << " IMU, " << nt << " temperature)";
-    return n;
-  }
+  /// Publishes every IMU and temperature message of a bag and waits until the nodelet has them all; the IMU count.
+  int64_t play(const std::string& bag) { return playBag(bag, imu, &temp, diag, 120.0); }
   /// ~analyze and the report it publishes.
   gyro_allan::NoiseReport analyze() {
-    const int before = reports();
-    const std_srvs::Trigger::Response r = call("analyze");
+    const int before = reports.count();
+    const std_srvs::Trigger::Response r = trigger(kNode, "analyze");
     EXPECT_TRUE(r.success) << r.message;
-    EXPECT_TRUE(waitFor(60.0, [&] { return reports() > before; })) << "no ~noise after ~analyze";
-    return last();
+    EXPECT_TRUE(waitFor(60.0, [&] { return reports.count() > before; })) << "no ~noise after ~analyze";
+    return reports.last();
   }
-
-  ros::NodeHandle nh_;
-
- private:
-  ros::Publisher imu_pub_, temp_pub_;
-  ros::Subscriber noise_sub_, diag_sub_;
-  std::mutex mutex_;
-  int reports_ = 0;
-  gyro_allan::NoiseReport last_;
-  std::map<std::string, std::string> values_;
-  std::string hwid_;
 };
 
 double rel(double a, double b) { return std::fabs(a - b) / std::max(std::fabs(b), 1e-300); }
@@ -176,8 +95,8 @@ void expectSameAsAnalyzeBag(const gyro_allan::NoiseReport& r, const YAML::Node& 
   EXPECT_TRUE(found) << "no " << effect << " effect";
 }
 
-YAML::Node analyzeBag(const std::string& bag, const std::string& out) {
-  EXPECT_EQ(sh("GYRO_ALLAN_NO_PLOT=1 " + kTools + "/analyze_bag " + bag + " --output " + out + " --quiet"), 0);
+YAML::Node analyzeBagReport(const std::string& bag, const std::string& out) {
+  EXPECT_EQ(analyzeBag(bag, out), 0);
   return YAML::LoadFile(out + "/report.yaml");
 }
 
@@ -185,7 +104,9 @@ YAML::Node analyzeBag(const std::string& bag, const std::string& out) {
 
 TEST(NodeletClosedLoop, SameAsAnalyzeBagLiveControlSaveLatched) {
   Loop h;
-  ASSERT_TRUE(h.waitForNodelet(30.0)) << "analyzer nodelet did not come up";
+  ASSERT_TRUE(waitFor(30.0, [&] {
+    return h.imu.getNumSubscribers() > 0 && h.temp.getNumSubscribers() > 0 && serviceUp(kNode, "analyze");
+  })) << "analyzer nodelet did not come up";
   sh("mkdir -p " + kOut);
   // 20 min at 100 Hz with declared noise and one undeclared effect each (simulate tool, fixed seeds):
   // a warm-up drift of 2 mrad/s (theta 200 s) with the temperature series, and a 0.5 mrad/s sinusoid at 2.5 Hz.
@@ -198,67 +119,42 @@ TEST(NodeletClosedLoop, SameAsAnalyzeBagLiveControlSaveLatched) {
   // Warm-up: whole record in one window, the same answer as analyze_bag.
   EXPECT_EQ(h.play(warm), 120000);
   const gyro_allan::NoiseReport rw = h.analyze();
-  expectSameAsAnalyzeBag(rw, analyzeBag(warm, kOut + "/warm_out"), "thermal_drift");
+  expectSameAsAnalyzeBag(rw, analyzeBagReport(warm, kOut + "/warm_out"), "thermal_drift");
   EXPECT_TRUE(std::isfinite(rw.temperature));
-  EXPECT_EQ(h.hardwareId(), "imu_link");  // the IMU's frame_id (simulate --frame default)
+  EXPECT_EQ(h.diag.hardwareId(), "imu_link");  // the IMU's frame_id (simulate --frame default)
 
   // Sinusoid: the window is emptied first (~reset), then the same.
-  EXPECT_TRUE(Loop::call("reset").success);
+  EXPECT_TRUE(trigger(kNode, "reset").success);
   EXPECT_EQ(h.play(sine), 120000);
   const gyro_allan::NoiseReport rs = h.analyze();
-  expectSameAsAnalyzeBag(rs, analyzeBag(sine, kOut + "/sine_out"), "sinusoid");
+  expectSameAsAnalyzeBag(rs, analyzeBagReport(sine, kOut + "/sine_out"), "sinusoid");
 
   // dynamic_reconfigure (what `rosrun dynamic_reconfigure dynparam set /loop_analyzer window_s 600` sends): the
   // window shrinks to the newest 600 s at once, and hop_s (3600) is brought down to the window with it.
-  dynamic_reconfigure::Reconfigure rc;
-  dynamic_reconfigure::DoubleParameter w;
-  w.name = "window_s";
-  w.value = 600.0;
-  rc.request.config.doubles.push_back(w);
-  ASSERT_TRUE(ros::service::call("/" + kNode + "/set_parameters", rc));
-  EXPECT_TRUE(h.waitFor(10.0, [&] { return h.value("window (s)") == 600.0; }));
-  EXPECT_EQ(h.value("hop (s)"), 600.0);
+  ASSERT_TRUE(reconfigure(kNode, {{"window_s", 600.0}}, {}));
+  EXPECT_TRUE(waitFor(10.0, [&] { return h.diag.value("window (s)") == 600.0; }));
+  EXPECT_EQ(h.diag.value("hop (s)"), 600.0);
   const gyro_allan::NoiseReport r600 = h.analyze();
   EXPECT_EQ(r600.window_s, 600.0);
   EXPECT_LE((r600.window_end - r600.window_start).toSec(), 600.0 + 0.011);
   EXPECT_NEAR(static_cast<double>(r600.samples), 60000.0, 2.0);
 
   // ~save writes the three files of the last analysis (the 600 s window).
-  const std_srvs::Trigger::Response saved = Loop::call("save");
+  const std_srvs::Trigger::Response saved = trigger(kNode, "save");
   ASSERT_TRUE(saved.success) << saved.message;
-  const size_t from = saved.message.find("wrote ") + 6, to = saved.message.find("/report.yaml");
-  ASSERT_NE(to, std::string::npos) << saved.message;
-  const std::string dir = saved.message.substr(from, to - from);
+  const std::string dir = savedDir(saved.message);
+  ASSERT_FALSE(dir.empty()) << saved.message;
   struct stat st;
   for (const char* f : {"/report.yaml", "/allan.csv", "/imu.yaml"})
     EXPECT_EQ(stat((dir + f).c_str(), &st), 0) << dir << f;
   const YAML::Node saved_report = YAML::LoadFile(dir + "/report.yaml");
   EXPECT_EQ(saved_report["axes"]["x"]["samples"].as<int64_t>(), r600.samples);
+  EXPECT_EQ(saved_report["method"].as<std::string>(), "auto");  // as analyze_bag's report without --method
 
   // A subscriber that comes late gets the last result at once (latched ~noise).
-  std::mutex m;
-  int got = 0;
-  ros::Time end;
-  ros::Subscriber late = h.nh_.subscribe<gyro_allan::NoiseReport>(
-      kNode + "/noise", 1, [&](const gyro_allan::NoiseReport::ConstPtr& r) {
-        std::lock_guard<std::mutex> l(m);
-        ++got;
-        end = r->window_end;
-      });
-  EXPECT_TRUE(h.waitFor(10.0, [&] {
-    std::lock_guard<std::mutex> l(m);
-    return got > 0;
-  }));
-  EXPECT_EQ(end, r600.window_end);
+  Latest<gyro_allan::NoiseReport> late(h.nh, kNode + "/noise", 1);
+  EXPECT_TRUE(waitFor(10.0, [&] { return late.count() > 0; }));
+  EXPECT_EQ(late.last().window_end, r600.window_end);
 }
 
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  ros::init(argc, argv, "nodelet_closed_loop");
-  ros::AsyncSpinner spinner(2);
-  spinner.start();
-  const int rc = RUN_ALL_TESTS();
-  spinner.stop();
-  ros::shutdown();
-  return rc;
-}
+int main(int argc, char** argv) { return nodelet_test::runRostest(argc, argv, "nodelet_closed_loop", 2); }

@@ -1,14 +1,11 @@
 // rostest node for AnalyzerNodelet: ARW converges to the simulated truth; diagnostics react to bad input and recover.
 #include <gtest/gtest.h>
 
-#include <algorithm>
 #include <cmath>
-#include <map>
-#include <mutex>
 #include <string>
 #include <vector>
 
-#include <diagnostic_msgs/DiagnosticArray.h>
+#include <diagnostic_msgs/DiagnosticStatus.h>
 #include <geometry_msgs/Vector3Stamped.h>
 #include <gyro_allan/NoiseReport.h>
 #include <ros/ros.h>
@@ -16,6 +13,7 @@
 #include <std_msgs/Header.h>
 
 #include "gyro_allan/simulate.hpp"
+#include "nodelet_util.hpp"
 
 // A message that claims to be sensor_msgs/Imu but carries only its header and a few bytes: the subscriber's
 // deserializer must reject it without harming the nodelet. (The header must be complete: the publishing side
@@ -61,18 +59,18 @@ struct Serializer<TruncatedImu> {
 
 namespace {
 
+using namespace nodelet_test;
+
 constexpr double kRate = 1000.0;
 const double kTrueN[3] = {1e-3, 2e-3, 5e-4};  // rad/sqrt(s): ARW declared to the simulator per axis
 constexpr double kNTolerance = 0.10;          // relative: 20 s window at 1 kHz pins N to ~1-2 %
 
 class Harness {
  public:
-  Harness() {
+  Harness() : reports_(nh_, "analyzer/noise", 100), diag_(nh_, "analyzer", 100) {
     imu_pub_ = nh_.advertise<sensor_msgs::Imu>("imu", 20000);
     bad_pub_ = nh_.advertise<TruncatedImu>("imu", 100);
     angle_pub_ = nh_.advertise<geometry_msgs::Vector3Stamped>("angle", 100);
-    noise_sub_ = nh_.subscribe("analyzer/noise", 100, &Harness::onNoise, this);
-    diag_sub_ = nh_.subscribe("/diagnostics", 100, &Harness::onDiag, this);
     const int64_t n = 120000;
     for (int a = 0; a < 3; ++a) {
       gyro_allan::AxisNoise noise;
@@ -92,12 +90,7 @@ class Harness {
   void moving(bool on) { moving_ = on; }
 
   bool waitForSubscriber(double timeout_s) {
-    const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(timeout_s);
-    while (ros::WallTime::now() < end) {
-      if (imu_pub_.getNumSubscribers() > 0 && noise_sub_.getNumPublishers() > 0) return true;
-      ros::WallDuration(0.05).sleep();
-    }
-    return false;
+    return waitFor(timeout_s, [&] { return imu_pub_.getNumSubscribers() > 0 && reports_.publishers() > 0; });
   }
 
   /// Publishes clean samples in real time (10 per 10 ms) for `seconds`, or until pred() is true. Returns pred's
@@ -124,15 +117,7 @@ class Harness {
     publish(stamp(next_), use_override ? override_x : data_[0][k] + wave, data_[1][k], data_[2][k]);
     ++next_;
   }
-  void publish(const ros::Time& stamp, double x, double y, double z) {
-    sensor_msgs::Imu m;
-    m.header.stamp = stamp;
-    m.header.frame_id = "imu_link";
-    m.angular_velocity.x = x;
-    m.angular_velocity.y = y;
-    m.angular_velocity.z = z;
-    imu_pub_.publish(m);
-  }
+  void publish(const ros::Time& stamp, double x, double y, double z) { imu_pub_.publish(imuMessage(stamp, x, y, z)); }
   ros::Time stamp(int64_t k) const {
     return t0_ + ros::Duration(k / kRate + (jittered_ ? delay_[static_cast<size_t>(k) % delay_.size()] : 0.0));
   }
@@ -153,61 +138,23 @@ class Harness {
   }
 
   // ---- observations
-  void onNoise(const gyro_allan::NoiseReport::ConstPtr& msg) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    last_report_ = *msg;
-    ++reports_;
-  }
-  void onDiag(const diagnostic_msgs::DiagnosticArray::ConstPtr& msg) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    for (const auto& s : msg->status) {
-      if (s.name.rfind("gyro_allan/analyzer: ", 0) != 0) continue;
-      const std::string key = s.name.substr(std::string("gyro_allan/analyzer: ").size());
-      level_[key] = s.level;
-      max_level_[key] = std::max<int>(max_level_.count(key) ? max_level_[key] : 0, s.level);
-      message_[key] = s.message;
-      ++diag_updates_[key];
-    }
-  }
-  int level(const std::string& key) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return level_.count(key) ? level_[key] : -1;
-  }
-  int maxLevel(const std::string& key) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return max_level_.count(key) ? max_level_[key] : -1;
-  }
-  std::string message(const std::string& key) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return message_[key];
-  }
-  void clearMax() {
-    std::lock_guard<std::mutex> lock(mutex_);
-    max_level_.clear();
-  }
-  int reports() {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return reports_;
-  }
-  gyro_allan::NoiseReport lastReport() {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return last_report_;
-  }
+  int level(const std::string& status) { return diag_.level(status); }
+  int maxLevel(const std::string& status) { return diag_.maxLevel(status); }
+  std::string message(const std::string& status) { return diag_.message(status); }
+  void clearMax() { diag_.clearMax(); }
+  int reports() { return reports_.count(); }
+  gyro_allan::NoiseReport lastReport() { return reports_.last(); }
 
  private:
   ros::NodeHandle nh_;
+  Latest<gyro_allan::NoiseReport> reports_;
+  Diagnostics diag_;
   ros::Publisher imu_pub_, bad_pub_, angle_pub_;
-  ros::Subscriber noise_sub_, diag_sub_;
   std::vector<double> data_[3];
   std::vector<double> delay_;
   bool jittered_ = false, moving_ = false;
   ros::Time t0_{1000.0};
   int64_t next_ = 0;
-  std::mutex mutex_;
-  gyro_allan::NoiseReport last_report_;
-  int reports_ = 0;
-  std::map<std::string, int> level_, max_level_, diag_updates_;
-  std::map<std::string, std::string> message_;
 };
 
 const int OK = diagnostic_msgs::DiagnosticStatus::OK;
@@ -341,13 +288,4 @@ TEST(NodeletConvergence, ConvergesReactsAndRecovers) {
   expectConverged(h.lastReport(), "after motion");
 }
 
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  ros::init(argc, argv, "nodelet_convergence");
-  ros::AsyncSpinner spinner(1);
-  spinner.start();
-  const int rc = RUN_ALL_TESTS();
-  spinner.stop();
-  ros::shutdown();
-  return rc;
-}
+int main(int argc, char** argv) { return nodelet_test::runRostest(argc, argv, "nodelet_convergence", 1); }

@@ -4,108 +4,32 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <cstdlib>
-#include <map>
 #include <mutex>
 #include <string>
+#include <vector>
 
-#include <diagnostic_msgs/DiagnosticArray.h>
-#include <dynamic_reconfigure/Reconfigure.h>
 #include <gyro_allan/NoiseModel.h>
 #include <ros/ros.h>
-#include <rosbag/bag.h>
-#include <rosbag/view.h>
 #include <sensor_msgs/Imu.h>
-#include <std_srvs/Trigger.h>
 #include <yaml-cpp/yaml.h>
 
+#include "nodelet_util.hpp"
+
 namespace {
+
+using namespace nodelet_test;
 
 const std::string kNode = "nm_analyzer";
 const std::string kOut = std::string(GYRO_ALLAN_TEST_OUT) + "/nodelet_noise_model";
 const std::string kTools = GYRO_ALLAN_TOOL_DIR;
 const double kFilterRate = 20.0;  // the launch file's ~filter_rate [Hz]
 
-int sh(const std::string& cmd) { return std::system(cmd.c_str()); }
-
-template <class F>
-bool waitFor(double timeout_s, F done) {
-  const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(timeout_s);
-  while (ros::WallTime::now() < end) {
-    if (done()) return true;
-    ros::WallDuration(0.02).sleep();
-  }
-  return done();
-}
-
-class Probe {
- public:
-  Probe() {
-    imu_pub_ = nh_.advertise<sensor_msgs::Imu>("imu", 100000);
-    model_sub_ = nh_.subscribe(kNode + "/noise_model", 10, &Probe::onModel, this);
-    diag_sub_ = nh_.subscribe("/diagnostics", 1000, &Probe::onDiag, this);
-  }
-  bool waitForNodelet(double timeout_s) {
-    return waitFor(timeout_s, [&] {
-      return imu_pub_.getNumSubscribers() > 0 && ros::service::exists("/" + kNode + "/analyze", false);
-    });
-  }
-  void onModel(const gyro_allan::NoiseModel::ConstPtr& m) {
-    std::lock_guard<std::mutex> l(mutex_);
-    ++models_;
-    last_ = *m;
-  }
-  void onDiag(const diagnostic_msgs::DiagnosticArray::ConstPtr& msg) {
-    std::lock_guard<std::mutex> l(mutex_);
-    for (const auto& s : msg->status) {
-      if (s.name.rfind("gyro_allan/" + kNode + ": ", 0) != 0) continue;
-      for (const auto& kv : s.values) values_[kv.key] = kv.value;
-      summaries_[s.name.substr(s.name.find(": ") + 2)] = s.message;
-    }
-  }
-  double value(const std::string& key) {
-    std::lock_guard<std::mutex> l(mutex_);
-    auto it = values_.find(key);
-    return it == values_.end() ? std::nan("") : std::atof(it->second.c_str());
-  }
-  std::string summary(const std::string& status) {
-    std::lock_guard<std::mutex> l(mutex_);
-    return summaries_[status];
-  }
-  int models() {
-    std::lock_guard<std::mutex> l(mutex_);
-    return models_;
-  }
-  gyro_allan::NoiseModel last() {
-    std::lock_guard<std::mutex> l(mutex_);
-    return last_;
-  }
-  static std_srvs::Trigger::Response call(const std::string& service) {
-    std_srvs::Trigger t;
-    EXPECT_TRUE(ros::service::call("/" + kNode + "/" + service, t)) << service;
-    return t.response;
-  }
-  /// Publishes every IMU message of a bag and waits until the nodelet has them all; returns their number.
-  int64_t play(const std::string& bag_path) {
-    rosbag::Bag bag(bag_path);
-    rosbag::View view(bag);
-    int64_t n = 0;
-    for (const rosbag::MessageInstance& m : view)
-      if (auto imu = m.instantiate<sensor_msgs::Imu>()) imu_pub_.publish(*imu), ++n;
-    EXPECT_TRUE(waitFor(60.0, [&] { return value("samples received (total)") == static_cast<double>(n); }))
-        << "the nodelet did not receive the " << n << " IMU messages of " << bag_path;
-    return n;
-  }
-
-  ros::NodeHandle nh_;
-
- private:
-  ros::Publisher imu_pub_;
-  ros::Subscriber model_sub_, diag_sub_;
-  std::mutex mutex_;
-  int models_ = 0;
-  gyro_allan::NoiseModel last_;
-  std::map<std::string, std::string> values_, summaries_;
+/// The test's view of the nodelet: its IMU input, ~noise_model and diagnostics.
+struct Probe {
+  ros::NodeHandle nh;
+  ros::Publisher imu = nh.advertise<sensor_msgs::Imu>("imu", 100000);
+  Latest<gyro_allan::NoiseModel> models{nh, kNode + "/noise_model"};
+  Diagnostics diag{nh, kNode};
 };
 
 /// noise_model.yaml prints 10 significant digits: relative tolerance 1e-8 (equal NaN, equal zero).
@@ -258,22 +182,23 @@ int expectSameAsYaml(const gyro_allan::NoiseModel& m, const YAML::Node& yaml) {
 
 TEST(NodeletNoiseModel, SameAsAnalyzeBagLatchedSaved) {
   Probe h;
-  ASSERT_TRUE(h.waitForNodelet(30.0)) << "analyzer nodelet did not come up";
+  ASSERT_TRUE(waitFor(30.0, [&] { return h.imu.getNumSubscribers() > 0 && serviceUp(kNode, "analyze"); }))
+      << "analyzer nodelet did not come up";
   sh("mkdir -p " + kOut);
   // 10 min at 100 Hz (simulate tool, fixed seed): white noise, a first-order Gauss-Markov term (sigma 2e-4 rad/s,
   // tc 5 s) and a rate random walk, the declared truth of a WN+GM(+RW) bias model.
   const std::string bag = kOut + "/gm.bag", out = kOut + "/analyze_bag";
   ASSERT_EQ(sh(kTools + "/simulate --output " + bag + " --rate 100 --duration 600 --arw 1e-4 --gm-sigma 2e-4 " +
                "--gm-tau 5 --rrw 1e-6 --seed 7 > /dev/null"), 0);
-  ASSERT_EQ(sh("GYRO_ALLAN_NO_PLOT=1 " + kTools + "/analyze_bag " + bag + " --output " + out +
-               " --method gmwm --filter-rate 20 --quiet"), 0);
+  ASSERT_EQ(analyzeBag(bag, out, "--method gmwm --filter-rate 20"), 0);
   const YAML::Node yaml = YAML::LoadFile(out + "/noise_model.yaml");
 
-  EXPECT_EQ(h.play(bag), 60000);
-  const std_srvs::Trigger::Response r = Probe::call("analyze");
+  EXPECT_EQ(playBag(bag, h.imu, nullptr, h.diag, 60.0), 60000);
+  const std_srvs::Trigger::Response r = trigger(kNode, "analyze");
   ASSERT_TRUE(r.success) << r.message;
-  ASSERT_TRUE(waitFor(60.0, [&] { return h.models() > 0; })) << "no ~noise_model after ~analyze";
-  const gyro_allan::NoiseModel m = h.last();
+  ASSERT_TRUE(waitFor(60.0, [&] { return h.models.count() > 0; })) << "no ~noise_model after ~analyze";
+  const gyro_allan::NoiseModel m = h.models.last();
+  EXPECT_EQ(m.status, gyro_allan::NoiseModel::STATUS_CURRENT);
   EXPECT_EQ(m.axes.size(), 3u);
   EXPECT_NEAR(m.rate_hz, 100.0, 1e-6);
   ASSERT_EQ(m.sources.size(), 1u);
@@ -290,32 +215,23 @@ TEST(NodeletNoiseModel, SameAsAnalyzeBagLatchedSaved) {
   EXPECT_TRUE(tc_found) << "no Gauss-Markov term with tc near the simulated 5 s";
 
   // A subscriber that comes late gets the model at once (latched ~noise_model).
-  std::mutex mu;
-  int got = 0;
-  ros::Time end;
-  ros::Subscriber late = h.nh_.subscribe<gyro_allan::NoiseModel>(
-      kNode + "/noise_model", 1, [&](const gyro_allan::NoiseModel::ConstPtr& x) {
-        std::lock_guard<std::mutex> l(mu);
-        ++got;
-        end = x->window_end;
-      });
-  EXPECT_TRUE(waitFor(10.0, [&] {
-    std::lock_guard<std::mutex> l(mu);
-    return got > 0;
-  })) << "late subscriber got no ~noise_model";
-  EXPECT_EQ(end, m.window_end);
+  {
+    Latest<gyro_allan::NoiseModel> late(h.nh, kNode + "/noise_model", 1);
+    EXPECT_TRUE(waitFor(10.0, [&] { return late.count() > 0; })) << "late subscriber got no ~noise_model";
+    EXPECT_EQ(late.last().window_end, m.window_end);
+  }
 
   // The "noise model" diagnostic names each axis's model.
-  EXPECT_TRUE(waitFor(5.0, [&] { return h.summary("noise model").find("x " + m.axes[0].model) != std::string::npos; }))
-      << h.summary("noise model");
-  EXPECT_EQ(h.value("filter rate (Hz, 0 = data rate only)"), kFilterRate);
+  EXPECT_TRUE(waitFor(5.0, [&] { return h.diag.message("noise model").find("x " + m.axes[0].model) != std::string::npos; }))
+      << h.diag.message("noise model");
+  EXPECT_EQ(h.diag.value("filter rate (Hz, 0 = data rate only)"), kFilterRate);
 
-  // ~save writes noise_model.yaml through analyze_bag's writer: the same axes as analyze_bag's file.
-  const std_srvs::Trigger::Response saved = Probe::call("save");
+  // ~save writes noise_model.yaml through analyze_bag's writer: the same axes as analyze_bag's file; its report.yaml
+  // names the method as analyze_bag --method gmwm --filter-rate 20 does ("gmwm", not "auto").
+  const std_srvs::Trigger::Response saved = trigger(kNode, "save");
   ASSERT_TRUE(saved.success) << saved.message;
-  const size_t from = saved.message.find("wrote ") + 6, to = saved.message.find("/report.yaml");
-  ASSERT_NE(to, std::string::npos) << saved.message;
-  const std::string dir = saved.message.substr(from, to - from);
+  const std::string dir = savedDir(saved.message);
+  ASSERT_FALSE(dir.empty()) << saved.message;
   EXPECT_NE(saved.message.find(dir + "/noise_model.yaml"), std::string::npos) << saved.message;
   const YAML::Node saved_yaml = YAML::LoadFile(dir + "/noise_model.yaml");
   YAML::Emitter a, b;
@@ -323,44 +239,44 @@ TEST(NodeletNoiseModel, SameAsAnalyzeBagLatchedSaved) {
   b << yaml["axes"];
   EXPECT_EQ(std::string(a.c_str()), std::string(b.c_str()));
   EXPECT_EQ(saved_yaml["sources"][0].as<std::string>(), "live topic /imu");
+  const YAML::Node bag_report = YAML::LoadFile(out + "/report.yaml");
+  EXPECT_EQ(bag_report["method"].as<std::string>(), "gmwm");
+  EXPECT_EQ(YAML::LoadFile(dir + "/report.yaml")["method"].as<std::string>(), bag_report["method"].as<std::string>());
 
   // dynamic_reconfigure: a filter rate turns the GMWM stage on even when gmwm is asked off (as analyze_bag
-  // --filter-rate implies --method gmwm); with both off the next window publishes no ~noise_model.
-  auto reconfigure = [](bool gmwm, double filter_rate) {
-    dynamic_reconfigure::Reconfigure rc;
-    dynamic_reconfigure::BoolParameter b;
-    b.name = "gmwm";
-    b.value = gmwm;
-    rc.request.config.bools.push_back(b);
-    dynamic_reconfigure::DoubleParameter d;
-    d.name = "filter_rate";
-    d.value = filter_rate;
-    rc.request.config.doubles.push_back(d);
-    EXPECT_TRUE(ros::service::call("/" + kNode + "/set_parameters", rc));
-    for (const auto& x : rc.response.config.bools)
-      if (x.name == "gmwm") return static_cast<bool>(x.value);
-    ADD_FAILURE() << "no gmwm in the reconfigure response";
-    return false;
+  // --filter-rate implies --method gmwm); with both off the latched model is replaced by one saying "off" (no axes),
+  // which a late subscriber gets, and the next window publishes no ~noise_model.
+  auto gmwmAfter = [](bool gmwm, double filter_rate) {
+    dynamic_reconfigure::Config applied;
+    EXPECT_TRUE(reconfigure(kNode, {{"filter_rate", filter_rate}}, {{"gmwm", gmwm}}, &applied));
+    bool found = false;
+    const bool on = configBool(applied, "gmwm", &found);
+    EXPECT_TRUE(found) << "no gmwm in the reconfigure response";
+    return on;
   };
-  EXPECT_TRUE(reconfigure(false, 50.0));
-  EXPECT_TRUE(waitFor(5.0, [&] { return h.value("filter rate (Hz, 0 = data rate only)") == 50.0; }));
-  EXPECT_FALSE(reconfigure(false, 0.0));
-  EXPECT_TRUE(waitFor(5.0, [&] { return h.summary("noise model") == "GMWM off (~gmwm)"; })) << h.summary("noise model");
-  const int models_before = h.models();
-  const double analyses = h.value("analyses (total)");
-  ASSERT_TRUE(Probe::call("analyze").success);
-  EXPECT_TRUE(waitFor(60.0, [&] { return h.value("analyses (total)") == analyses + 1; }));
+  EXPECT_TRUE(gmwmAfter(false, 50.0));
+  EXPECT_TRUE(waitFor(5.0, [&] { return h.diag.value("filter rate (Hz, 0 = data rate only)") == 50.0; }));
+  EXPECT_EQ(h.models.count(), 1) << "~noise_model published without an analysis";
+  EXPECT_FALSE(gmwmAfter(false, 0.0));
+  EXPECT_TRUE(waitFor(5.0, [&] { return h.diag.message("noise model") == "GMWM off (~gmwm)"; }))
+      << h.diag.message("noise model");
+  EXPECT_TRUE(waitFor(5.0, [&] { return h.models.count() == 2; })) << "no \"off\" ~noise_model after ~gmwm off";
+  const gyro_allan::NoiseModel off = h.models.last();
+  EXPECT_EQ(off.status, gyro_allan::NoiseModel::STATUS_OFF);
+  EXPECT_TRUE(off.axes.empty());
+  EXPECT_EQ(off.header.frame_id, m.header.frame_id);
+  {
+    Latest<gyro_allan::NoiseModel> late(h.nh, kNode + "/noise_model", 1);
+    EXPECT_TRUE(waitFor(10.0, [&] { return late.count() > 0; })) << "late subscriber got no ~noise_model";
+    EXPECT_EQ(late.last().status, gyro_allan::NoiseModel::STATUS_OFF) << "a late subscriber still gets the old model";
+    EXPECT_TRUE(late.last().axes.empty());
+  }
+  const int models_before = h.models.count();
+  const double analyses = h.diag.value("analyses (total)");
+  ASSERT_TRUE(trigger(kNode, "analyze").success);
+  EXPECT_TRUE(waitFor(60.0, [&] { return h.diag.value("analyses (total)") == analyses + 1; }));
   ros::WallDuration(0.5).sleep();
-  EXPECT_EQ(h.models(), models_before) << "~noise_model published with gmwm off";
+  EXPECT_EQ(h.models.count(), models_before) << "~noise_model published with gmwm off";
 }
 
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  ros::init(argc, argv, "nodelet_noise_model");
-  ros::AsyncSpinner spinner(2);
-  spinner.start();
-  const int rc = RUN_ALL_TESTS();
-  spinner.stop();
-  ros::shutdown();
-  return rc;
-}
+int main(int argc, char** argv) { return nodelet_test::runRostest(argc, argv, "nodelet_noise_model", 2); }

@@ -9,20 +9,20 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
-#include <map>
-#include <mutex>
 #include <random>
-#include <sstream>
 #include <string>
 
-#include <diagnostic_msgs/DiagnosticArray.h>
+#include <diagnostic_msgs/DiagnosticStatus.h>
 #include <geometry_msgs/Vector3Stamped.h>
 #include <gyro_allan/NoiseReport.h>
 #include <ros/ros.h>
 #include <sensor_msgs/Imu.h>
-#include <std_srvs/Trigger.h>
+
+#include "nodelet_util.hpp"
 
 namespace {
+
+using namespace nodelet_test;
 
 const char* kNode = "soak_analyzer";
 
@@ -57,80 +57,20 @@ long rssKb(int pid) {
   return 0;
 }
 
-class Soak {
- public:
-  Soak() {
-    imu_pub_ = nh_.advertise<sensor_msgs::Imu>("imu", 200000);
-    angle_pub_ = nh_.advertise<geometry_msgs::Vector3Stamped>("angle", 1000);
-    noise_sub_ = nh_.subscribe(std::string(kNode) + "/noise", 100, &Soak::onNoise, this);
-    diag_sub_ = nh_.subscribe("/diagnostics", 1000, &Soak::onDiag, this);
-  }
-  bool waitForNodelet(double timeout_s) {
-    const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(timeout_s);
-    while (ros::WallTime::now() < end) {
-      if (imu_pub_.getNumSubscribers() > 0 && angle_pub_.getNumSubscribers() > 0 && noise_sub_.getNumPublishers() > 0)
-        return true;
-      ros::WallDuration(0.05).sleep();
-    }
-    return false;
-  }
-  void onNoise(const gyro_allan::NoiseReport::ConstPtr& m) {
-    std::lock_guard<std::mutex> l(mutex_);
-    ++reports_;
-    last_ = *m;
-  }
-  void onDiag(const diagnostic_msgs::DiagnosticArray::ConstPtr& msg) {
-    std::lock_guard<std::mutex> l(mutex_);
-    const std::string prefix = "gyro_allan/" + std::string(kNode) + ": ";
-    for (const auto& s : msg->status) {
-      if (s.name.rfind(prefix, 0) != 0) continue;
-      const std::string key = s.name.substr(prefix.size());
-      max_level_[key] = std::max<int>(max_level_.count(key) ? max_level_[key] : 0, s.level);
-      for (const auto& kv : s.values) values_[kv.key] = kv.value;
-    }
-  }
-  /// A counter from the diagnostics key/values (-1 until seen).
-  double value(const std::string& key) {
-    std::lock_guard<std::mutex> l(mutex_);
-    auto it = values_.find(key);
-    return it == values_.end() ? -1.0 : std::atof(it->second.c_str());
-  }
-  int maxLevel(const std::string& key) {
-    std::lock_guard<std::mutex> l(mutex_);
-    return max_level_.count(key) ? max_level_[key] : -1;
-  }
-  int reports() {
-    std::lock_guard<std::mutex> l(mutex_);
-    return reports_;
-  }
-  gyro_allan::NoiseReport last() {
-    std::lock_guard<std::mutex> l(mutex_);
-    return last_;
-  }
-
-  ros::Time stamp(int64_t k) const { return t0_ + ros::Duration(static_cast<double>(k) / rate_); }
-  void publish(const ros::Time& st, double x, double y, double z) {
-    sensor_msgs::Imu m;
-    m.header.stamp = st;
-    m.header.frame_id = "imu_link";
-    m.angular_velocity.x = x;
-    m.angular_velocity.y = y;
-    m.angular_velocity.z = z;
-    imu_pub_.publish(m);
-  }
-
+/// The test's view of the nodelet: its IMU and angle input, ~noise and diagnostics.
+struct Soak {
+  ros::NodeHandle nh;
+  ros::Publisher imu_pub_ = nh.advertise<sensor_msgs::Imu>("imu", 200000);
+  ros::Publisher angle_pub_ = nh.advertise<geometry_msgs::Vector3Stamped>("angle", 1000);
+  Latest<gyro_allan::NoiseReport> reports{nh, std::string(kNode) + "/noise", 100};
+  Diagnostics diag{nh, kNode};
   double rate_ = 10000;
   ros::Time t0_{2000.0};
-  ros::Publisher imu_pub_, angle_pub_;
 
- private:
-  ros::NodeHandle nh_;
-  ros::Subscriber noise_sub_, diag_sub_;
-  std::mutex mutex_;
-  int reports_ = 0;
-  gyro_allan::NoiseReport last_;
-  std::map<std::string, int> max_level_;
-  std::map<std::string, std::string> values_;
+  /// A counter from the diagnostics key/values (-1 until seen).
+  double value(const std::string& key) { return diag.value(key, -1.0); }
+  ros::Time stamp(int64_t k) const { return t0_ + ros::Duration(static_cast<double>(k) / rate_); }
+  void publish(const ros::Time& st, double x, double y, double z) { imu_pub_.publish(imuMessage(st, x, y, z)); }
 };
 
 }  // namespace
@@ -142,7 +82,9 @@ TEST(NodeletSoak, NothingLostMemoryFlatDiagnosticsConsistent) {
   pnh.param("rate_hz", rate, rate);
   Soak s;
   s.rate_ = rate;
-  ASSERT_TRUE(s.waitForNodelet(30.0)) << "analyzer nodelet did not come up";
+  ASSERT_TRUE(waitFor(30.0, [&] {
+    return s.imu_pub_.getNumSubscribers() > 0 && s.angle_pub_.getNumSubscribers() > 0 && s.reports.publishers() > 0;
+  })) << "analyzer nodelet did not come up";
   const int pid = nodeletPid();
   ASSERT_GT(pid, 0) << "nodelet process not found in /proc";
   ros::WallDuration(0.5).sleep();
@@ -194,14 +136,14 @@ TEST(NodeletSoak, NothingLostMemoryFlatDiagnosticsConsistent) {
   auto received = [&] { return s.value("samples received (total)") + s.value("other source ignored (total)"); };
   const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(30.0);
   while (ros::WallTime::now() < end && received() < static_cast<double>(total)) ros::WallDuration(0.2).sleep();
-  const int reports_before = s.reports();
+  const int reports_before = s.reports.count();
   for (int tries = 0; tries < 100; ++tries) {  // refused while a hop's analysis runs
-    std_srvs::Trigger trig;
-    if (ros::service::call(std::string("/") + kNode + "/analyze", trig) && trig.response.success) break;
+    std_srvs::Trigger::Response res;
+    if (callTrigger(kNode, "analyze", &res) && res.success) break;
     ros::WallDuration(0.2).sleep();
   }
   const ros::WallTime end2 = ros::WallTime::now() + ros::WallDuration(30.0);
-  while (ros::WallTime::now() < end2 && s.reports() == reports_before) ros::WallDuration(0.1).sleep();
+  while (ros::WallTime::now() < end2 && s.reports.count() == reports_before) ros::WallDuration(0.1).sleep();
   ros::WallDuration(1.5).sleep();  // one more diagnostics period with the final counts
   const long rss_end = rssKb(pid);
 
@@ -222,7 +164,7 @@ TEST(NodeletSoak, NothingLostMemoryFlatDiagnosticsConsistent) {
               s.value("NaN/Inf dropped (total)"), s.value("too close (total)"), s.value("zero stamps (total)"),
               s.value("out of order (total)"), s.value("duplicates (total)"), s.value("other source ignored (total)"));
     std::fprintf(out, "soak: nodelet pid %d RSS start %ld kB, peak %ld kB, end %ld kB; noise reports %d\n", pid,
-                 rss_start, rss_peak, rss_end, s.reports());
+                 rss_start, rss_peak, rss_end, s.reports.count());
     std::fflush(out);
   }
   if (fig) std::fclose(fig);
@@ -239,23 +181,14 @@ TEST(NodeletSoak, NothingLostMemoryFlatDiagnosticsConsistent) {
   EXPECT_EQ(s.value("duplicates (total)"), static_cast<double>(sent_bad[kDup]));
   EXPECT_EQ(s.value("other source ignored (total)"), static_cast<double>(sent_bad[kOther]));
   // Statuses raised by the faults; the fit keeps running at the learned rate.
-  EXPECT_GE(s.maxLevel("stamps"), diagnostic_msgs::DiagnosticStatus::WARN);
-  EXPECT_GE(s.maxLevel("input values"), diagnostic_msgs::DiagnosticStatus::WARN);
-  EXPECT_GT(s.reports(), 0);
-  EXPECT_NEAR(s.last().rate_hz, rate, 0.01 * rate);
+  EXPECT_GE(s.diag.maxLevel("stamps"), diagnostic_msgs::DiagnosticStatus::WARN);
+  EXPECT_GE(s.diag.maxLevel("input values"), diagnostic_msgs::DiagnosticStatus::WARN);
+  EXPECT_GT(s.reports.count(), 0);
+  EXPECT_NEAR(s.reports.last().rate_hz, rate, 0.01 * rate);
   // Memory flat: after warm-up, RSS grows by less than 16 MB + 10 % (roscpp buffers breathe; a leak of one
   // allocation per message would add > 40 MB at 10 kHz in 30 s).
   ASSERT_GT(rss_start, 0);
   EXPECT_LT(rss_end, rss_start + 16 * 1024 + rss_start / 10) << "RSS start " << rss_start << " kB, end " << rss_end;
 }
 
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  ros::init(argc, argv, "nodelet_soak");
-  ros::AsyncSpinner spinner(1);
-  spinner.start();
-  const int rc = RUN_ALL_TESTS();
-  spinner.stop();
-  ros::shutdown();
-  return rc;
-}
+int main(int argc, char** argv) { return nodelet_test::runRostest(argc, argv, "nodelet_soak", 1); }

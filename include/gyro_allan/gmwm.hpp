@@ -226,7 +226,7 @@ void gmwmCompare(GmwmAxis* g, const DeviationCurve& oadev, const std::vector<dou
 
 // ==== The reported noise model (issue #16) ==========================================================================
 // Everything noise_model.yaml and the nodelet's ~noise_model message report for one axis, computed here once: both
-// writers only copy these fields (src/io/noise_model_yaml.cpp, src/ros/analyzer_ros.cpp).
+// writers only copy these fields (src/io/noise_model_yaml.cpp, src/ros/noise_model_msg.cpp).
 
 /// One discrete model of the report: discretize() at dt plus the measurement variance a filter uses.
 struct ReportedDiscreteModel {

@@ -33,7 +33,8 @@ void AnalyzerNodelet::onInit() {
   oa_ = std::make_unique<OnlineAnalyzer>(p_.online);
 
   noise_pub_ = pnh.advertise<NoiseReport>("noise", 10, true);  // latched: a late subscriber gets the last result
-  noise_model_pub_ = pnh.advertise<NoiseModel>("noise_model", 10, true);  // latched; published while ~gmwm is on
+  // latched; published while ~gmwm is on, and once with status "off" when it is turned off
+  noise_model_pub_ = pnh.advertise<NoiseModel>("noise_model", 10, true);
   if (p_.publish_plot && plotImageAvailable()) plot_pub_ = pnh.advertise<sensor_msgs::Image>("plot", 1);
   const char* axes[3] = {"x", "y", "z"};
   if (p_.publish_curves)
@@ -159,11 +160,15 @@ void AnalyzerNodelet::publish(const OnlineResult& r, double temperature) {
   if (!r.ok) return;  // the window diagnostic says why
   const NoiseReport report = toNoiseReport(r, p, frame, temperature);
   noise_pub_.publish(report);
-  const bool with_model = hasNoiseModel(r.result);  // the window was analysed with ~gmwm on
+  bool with_model = hasNoiseModel(r.result);  // the window was analysed with ~gmwm on
   NoiseModel model;
   if (with_model) {
     model = toNoiseModel(r, p, frame, liveReportMeta(p, topic).sources);
-    noise_model_pub_.publish(model);
+    // Only while ~gmwm is still on: a window started before it was turned off must not replace the "off" message
+    // on the latched topic (reconfigure publishes that under the same lock).
+    std::lock_guard<std::mutex> lock(mutex_);
+    with_model = p_.online.pipeline.analysis.gmwm;
+    if (with_model) noise_model_pub_.publish(model);
   }
   if (p.publish_curves)
     for (size_t a = 0; a < r.result.gyro.size() && a < 3; ++a) curve_pub_[a].publish(toCurve(r.result.gyro[a], report.header));
@@ -176,6 +181,7 @@ void AnalyzerNodelet::publish(const OnlineResult& r, double temperature) {
   }
   std::lock_guard<std::mutex> lock(mutex_);
   last_good_ = r;
+  last_good_params_ = p;
   last_report_ = report;
   have_good_ = true;
   if (with_model) {
@@ -205,7 +211,7 @@ bool AnalyzerNodelet::analyzeService(std_srvs::Trigger::Request&, std_srvs::Trig
 bool AnalyzerNodelet::saveService(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
   OnlineResult r;
   std::string topic;
-  const AnalyzerParams p = params();
+  AnalyzerParams p;  // those the window was analysed and published with: the report's method, the filter rate
   {
     std::lock_guard<std::mutex> lock(mutex_);
     if (!have_good_) {
@@ -214,6 +220,7 @@ bool AnalyzerNodelet::saveService(std_srvs::Trigger::Request&, std_srvs::Trigger
       return true;
     }
     r = last_good_;
+    p = last_good_params_;
     topic = topic_;
   }
   std::string dir = p.save_dir;
@@ -257,8 +264,15 @@ void AnalyzerNodelet::reconfigure(AnalyzerConfig& c, uint32_t) {
     c = toConfig(p_);
     return;
   }
+  // ~gmwm turned off: the latched ~noise_model is replaced by one that says so (status "off", no axes).
+  const bool gmwm_off = p_.online.pipeline.analysis.gmwm && !p.online.pipeline.analysis.gmwm;
   p_ = p;
   oa_->setOptions(p_.online);
+  if (gmwm_off) {
+    have_noise_model_ = false;
+    last_noise_model_ = NoiseModel();
+    noise_model_pub_.publish(noiseModelOff(ros::Time::now(), frame_id_));
+  }
   NODELET_INFO("gyro_allan analyzer: window %g s, hop %g s, method %s, wavelet split %s, model check %s, rest check %s, "
                "GMWM %s (filter rate %g Hz)",
                p_.online.window_s, p_.online.hop_s, p_.method.c_str(), c.wavelet_split ? "on" : "off",

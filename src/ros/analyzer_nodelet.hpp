@@ -72,6 +72,7 @@ class AnalyzerNodelet : public nodelet::Nodelet {
   bool have_result_ = false, have_good_ = false;
   OnlineResult last_;          ///< the last analysis
   OnlineResult last_good_;     ///< the last analysable one (~save writes it)
+  AnalyzerParams last_good_params_;  ///< the params last_good_ was published with (~save's report method, filter rate)
   NoiseReport last_report_;    ///< the last published ~noise
   bool have_noise_model_ = false;
   NoiseModel last_noise_model_;  ///< the last published ~noise_model

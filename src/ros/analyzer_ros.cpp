@@ -11,6 +11,7 @@
 #include "gyro_allan/io/noise_model_yaml.hpp"
 #include "gyro_allan/io/plot_image.hpp"
 #include "gyro_allan/quality.hpp"
+#include "noise_model_msg.hpp"
 
 namespace gyro_allan {
 
@@ -152,107 +153,6 @@ AxisNoiseFit toAxisMsg(const AxisAnalysis& a) {
   m.quality = qualityName(a.quality.quality);
   m.quality_reason = a.quality.reason;
   m.notes = a.notes;
-  return m;
-}
-
-ValueSigma valueSigma(double value, double sigma) {
-  ValueSigma v;
-  v.value = value;
-  v.sigma = sigma;
-  return v;
-}
-
-std::vector<double> rowMajor(const Eigen::MatrixXd& x) {
-  std::vector<double> v;
-  v.reserve(static_cast<size_t>(x.size()));
-  for (int i = 0; i < x.rows(); ++i)
-    for (int j = 0; j < x.cols(); ++j) v.push_back(x(i, j));
-  return v;
-}
-
-ModelAgreement toMsg(const CurveAgreement& c) {
-  ModelAgreement m;
-  m.points = c.points;
-  m.within_ci = c.within_ci;
-  m.worst_adev_ratio = c.worst_ratio;
-  m.worst_at_tau_s = c.worst_tau;
-  m.rms_log10 = c.rms_log10;
-  return m;
-}
-
-/// One axis of ~noise_model: a copy of axisNoiseModel (io/noise_model_yaml.hpp), the numbers noise_model.yaml prints.
-AxisNoiseModel toAxisNoiseModel(const AxisAnalysis& a, double filter_rate_hz) {
-  const ReportedNoiseModel r = axisNoiseModel(a, filter_rate_hz);
-  AxisNoiseModel m;
-  m.axis = a.axis;
-  m.ok = r.ok;
-  m.error = r.error;
-  if (!r.ok) return m;
-  const GmwmFit& f = r.fit;
-  m.model = r.model;
-  m.selection = r.selection;
-  for (const ReportedCandidate& c : r.candidates) {
-    NoiseModelCandidate cm;
-    cm.model = c.model;
-    cm.ok = c.ok;
-    cm.criterion = c.criterion;
-    cm.chi2 = c.chi2;
-    cm.dof = c.dof;
-    cm.identified = c.identified;
-    cm.unidentified = c.unidentified;
-    m.candidates.push_back(cm);
-  }
-  m.chi2 = f.chi2;
-  m.dof = f.dof;
-  m.chi2_p = f.chi2_p;
-  m.segment_s = r.segment_s;
-  m.data_rate_hz = r.data_rate_hz;
-  m.continuous.angle_random_walk = valueSigma(f.N, f.N_sd);
-  if (f.model.quantization) m.continuous.quantization = valueSigma(f.Q, f.Q_sd);
-  if (f.model.random_walk) m.continuous.rate_random_walk = valueSigma(f.K, f.K_sd);
-  if (f.model.drift) m.continuous.rate_ramp = valueSigma(f.R, f.R_sd);
-  if (f.model.moving_average > 0) {
-    MovingAverageNoise& ma = m.continuous.moving_average;
-    ma.order = static_cast<uint32_t>(f.model.moving_average);
-    ma.theta = f.ma;
-    ma.theta_sigma = f.ma_sd;
-    ma.innovation = valueSigma(f.ma_innovation, f.ma_innovation_sd);
-  }
-  for (const GaussMarkovTerm& t : f.gm) {
-    GaussMarkovProcess g;
-    g.sigma = valueSigma(t.sigma, t.sigma_sd);
-    g.correlation_time = valueSigma(t.tc, t.tc_sd);
-    m.continuous.gauss_markov.push_back(g);
-  }
-  for (const ReportedDiscreteModel& d : r.discrete) {
-    DiscreteBiasModel dm;
-    dm.dt = d.dt;
-    dm.rate_hz = d.rate_hz;
-    dm.states = d.model.states;
-    dm.folded_into_white = d.model.folded;
-    dm.dimension = static_cast<uint32_t>(d.model.Phi.rows());
-    dm.Phi = rowMajor(d.model.Phi);
-    dm.Qd = rowMajor(d.model.Qd);
-    dm.measurement_variance = d.measurement_variance;
-    dm.white_variance = d.model.white_variance;
-    dm.quantization_variance = d.model.quantization_variance;
-    dm.approximation = d.model.approximation;
-    m.discrete.push_back(dm);
-  }
-  FlickerApproximation& fl = m.flicker_approximation;
-  fl.gauss_markov_terms = r.gauss_markov_terms;
-  fl.tau_range_s[0] = r.tau_min_s;
-  fl.tau_range_s[1] = r.tau_max_s;
-  fl.ieee_bias_instability = valueSigma(r.ieee_bias_instability, r.ieee_bias_instability_sigma);
-  fl.worst_avar_ratio_vs_ieee_model = r.worst_avar_ratio_vs_ieee_model;
-  fl.worst_avar_ratio_vs_data = r.worst_avar_ratio_vs_data;
-  ClosedLoopCheck& cl = m.closed_loop;
-  cl.gmwm_model = toMsg(r.gmwm_model);
-  cl.ieee_model = toMsg(r.ieee_model);
-  cl.final_model = toMsg(r.final_model);
-  cl.wavelet_variance_points = r.wavelet_variance_points;
-  cl.wavelet_variance_within_ci = r.wavelet_variance_within_ci;
-  cl.wavelet_variance_confidence = r.wavelet_variance_confidence;
   return m;
 }
 
@@ -450,13 +350,22 @@ NoiseModel toNoiseModel(const OnlineResult& r, const AnalyzerParams& p, const st
   NoiseModel m;
   m.header.stamp = fromNs(r.last_ns);
   m.header.frame_id = frame_id;
+  m.status = NoiseModel::STATUS_CURRENT;
   m.window_start = fromNs(r.first_ns);
   m.window_end = fromNs(r.last_ns);
   m.rate_hz = r.result.tau0 > 0 ? 1.0 / r.result.tau0 : 0;
   m.filter_rate_hz = p.filter_rate;
   m.sources = sources;
   for (const AxisAnalysis& a : r.result.gyro)
-    if (a.has_gmwm) m.axes.push_back(toAxisNoiseModel(a, p.filter_rate));
+    if (a.has_gmwm) m.axes.push_back(toAxisNoiseModel(a.axis, axisNoiseModel(a, p.filter_rate)));
+  return m;
+}
+
+NoiseModel noiseModelOff(const ros::Time& stamp, const std::string& frame_id) {
+  NoiseModel m;
+  m.header.stamp = stamp;
+  m.header.frame_id = frame_id;
+  m.status = NoiseModel::STATUS_OFF;
   return m;
 }
 
@@ -515,6 +424,10 @@ sensor_msgs::Image plotMessage(const PipelineResult& r, const NoiseReport& repor
   return msg;
 }
 
+std::string reportMethod(const AnalyzerParams& p) {
+  return p.online.pipeline.analysis.gmwm && p.method == "auto" ? "gmwm" : p.method;
+}
+
 ReportMeta liveReportMeta(const AnalyzerParams& p, const std::string& topic) {
   ReportMeta meta;
   meta.sources.push_back("live topic " + topic);
@@ -523,7 +436,7 @@ ReportMeta liveReportMeta(const AnalyzerParams& p, const std::string& topic) {
   meta.input = ao.input == InputKind::Rate ? "rate" : ao.angle_increments ? "angle_increment" : "angle";
   meta.input_units = ao.input == InputKind::Rate ? "rad/s" : "rad";
   meta.tau_grid = tauGridName(ao.deviation.grid);
-  meta.method = p.method;
+  meta.method = reportMethod(p);
   meta.confidence = ao.deviation.confidence;
   return meta;
 }

@@ -59,6 +59,8 @@ NoiseReport toNoiseReport(const OnlineResult& r, const AnalyzerParams& p, const 
 /// copied from axisNoiseModel (io/noise_model_yaml.hpp), the source of noise_model.yaml too; sources as there.
 NoiseModel toNoiseModel(const OnlineResult& r, const AnalyzerParams& p, const std::string& frame_id,
                         const std::vector<std::string>& sources);
+/// The ~noise_model message that replaces the latched model when ~gmwm is turned off: status "off", no axes.
+NoiseModel noiseModelOff(const ros::Time& stamp, const std::string& frame_id);
 /// True when some gyro axis of the result carries a GMWM stage (then ~noise_model and ~save's noise_model.yaml).
 bool hasNoiseModel(const PipelineResult& r);
 /// ~allan/<axis> message of one axis.
@@ -67,7 +69,10 @@ AllanCurve toCurve(const AxisAnalysis& a, const std_msgs::Header& header);
 sensor_msgs::Image plotMessage(const PipelineResult& r, const NoiseReport& report, const AnalyzerParams& p);
 /// Mean of a job's temperature readings (NaN when none).
 double meanTemperature(const OnlineJob& job);
-/// The report's description of the live input (sources, topic, units) for ~save.
+/// report.yaml's "method" for these params, as analyze_bag names its --method: "gmwm" for auto with the GMWM stage on
+/// (~gmwm or ~filter_rate > 0; analyze_bag --method gmwm), else ~method (the GMWM stage does not change the answer).
+std::string reportMethod(const AnalyzerParams& p);
+/// The report's description of the live input (sources, topic, units, method: reportMethod) for ~save.
 ReportMeta liveReportMeta(const AnalyzerParams& p, const std::string& topic);
 
 /// State the diagnostics read (a copy taken under the nodelet's lock).
