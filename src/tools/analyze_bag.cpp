@@ -436,7 +436,8 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
 
   ReportMeta meta;
   meta.tau_grid = tauGridName(opt.deviation.grid);
-  meta.method = args.method;
+  // --filter-rate implies --method gmwm (README), and the nodelet's ~save writes gmwm for auto + GMWM: the same here.
+  meta.method = (opt.gmwm && args.method == "auto") ? "gmwm" : args.method;
   std::vector<double> temp_t, temp_v;  // temperature series (bags with a sensor_msgs/Temperature topic)
   // Bags: samples and stamps held compactly (4 bytes each) until sanitized; accel = linear_acceleration, m/s^2.
   std::array<CompactSeries, 3> gyro_c, accel;
