@@ -28,6 +28,15 @@ double levelMeanSquare(const std::vector<double>& x, const Wavelet& w, int level
   for (size_t i = F; i + F < d.size(); ++i) s += d[i] * d[i];
   return s / static_cast<double>(d.size() - 2 * F);
 }
+// An undithered pulse counter (sawtooth quantization error) at a constant input rate.
+AxisNoise undithered(double n, double rate_deg_h) {
+  AxisNoise ax;
+  ax.quantization = kQ;
+  ax.angle_random_walk = n;
+  ax.dither = false;
+  ax.input_rate = rate_deg_h * kDegPerHour;
+  return ax;
+}
 }  // namespace
 
 TEST(WaveletSplitFactors, HaarLevel1ByHand) {
@@ -136,13 +145,8 @@ TEST(WaveletSplit, RecoversDeclaredQAndNDithered) {
 TEST(WaveletSplit, RecoversDeclaredQAndNSawtooth) {
   // Pulse counter without dither at a constant 10 deg/h: the quantization error is a sawtooth (not white).
   for (uint64_t seed : {4u, 5u}) {
-    AxisNoise ax;
-    ax.quantization = kQ;
-    ax.angle_random_walk = kN;
-    ax.dither = false;
-    ax.input_rate = 10 * kDegPerHour;
     const double fs = 400;
-    const auto rate = simulateAxis(ax, fs, static_cast<int64_t>(fs * 1200), seed, 0);
+    const auto rate = simulateAxis(undithered(kN, 10), fs, static_cast<int64_t>(fs * 1200), seed, 0);
     const auto r = waveletSplit(rate, 1.0 / fs);
     ASSERT_TRUE(r.ok) << r.message;
     EXPECT_NEAR(r.terms[kQuantization].value, kQ, 0.01 * kQ) << seed;
@@ -163,12 +167,8 @@ TEST(WaveletSplit, SawtoothSigmasCoverTheSplitsBias) {
   constexpr double kN2 = 0.002 * M_PI / 180.0 / 60.0;
   double zq2 = 0, zn2 = 0;
   for (uint64_t seed = 11; seed <= 18; ++seed) {
-    AxisNoise ax;
-    ax.quantization = kQ;
-    ax.angle_random_walk = kN2;
+    AxisNoise ax = undithered(kN2, 2);
     ax.bias_instability = 0.005 * kDegPerHour;
-    ax.dither = false;
-    ax.input_rate = 2 * kDegPerHour;
     const double fs = 100;
     const auto rate = simulateAxis(ax, fs, static_cast<int64_t>(fs * 3600), seed, 0);
     const auto r = waveletSplit(rate, 1.0 / fs);
@@ -192,12 +192,7 @@ TEST(WaveletSplit, SawtoothSigmasCoverTheSplitsBias) {
 
 TEST(WaveletSplit, MadScalingKeepsSawtoothPulses) {
   // Why the pipeline uses sln_rms: with the MAD the sparse quantization pulses look like signal and are kept.
-  AxisNoise ax;
-  ax.quantization = kQ;
-  ax.angle_random_walk = kN;
-  ax.dither = false;
-  ax.input_rate = 10 * kDegPerHour;
-  const auto rate = simulateAxis(ax, 400, 400 * 300, 9, 0);
+  const auto rate = simulateAxis(undithered(kN, 10), 400, 400 * 300, 9, 0);
   WdenOptions o;
   o.level = 7;
   o.scaling = NoiseScaling::Sln;
