@@ -536,7 +536,7 @@ TEST(GmwmKnownTerms, GaussMarkovRecoveredWithASinusoidAsKnownTerm) {
     unknown_ok += good(fu);
     unknown_rejected += fu.chi2_p < 1e-6;
     sd_close += fk.gm[0].sigma_sd <= 1.25 * f0.gm[0].sigma_sd && fk.gm[0].tc_sd <= 1.25 * f0.gm[0].tc_sd;
-    std::printf("seed %llu: sigma/tc ref %.4g/%.4g (sd %.2g/%.2g, chi2 %.1f/%d), known %.4g/%.4g (sd %.2g/%.2g, chi2 "
+    std::printf("seed %llu: sigma/tc ref %.4g/%.4g (sd %.3g/%.3g, chi2 %.1f/%d), known %.4g/%.4g (sd %.3g/%.3g, chi2 "
                 "%.1f/%d, A %.4g), unknown %.4g/%.4g (chi2 %.3g/%d)\n",
                 static_cast<unsigned long long>(seed), f0.gm[0].sigma, f0.gm[0].tc, f0.gm[0].sigma_sd, f0.gm[0].tc_sd,
                 f0.chi2, f0.dof, fk.gm[0].sigma, fk.gm[0].tc, fk.gm[0].sigma_sd, fk.gm[0].tc_sd, fk.chi2, fk.dof,
@@ -547,4 +547,57 @@ TEST(GmwmKnownTerms, GaussMarkovRecoveredWithASinusoidAsKnownTerm) {
   EXPECT_EQ(sd_close, 8);
   EXPECT_EQ(unknown_rejected, 8);
   EXPECT_EQ(unknown_ok, 0);  // measured: sigma +43..49 %, tc -12..-19 % without the known term
+}
+
+// The simulated narrowband known term (a Gaussian process by inverse FFT, simulateGmwmFit) has the WV the fit uses
+// (c sum_i w_i sinusoidAvar(2^(j-1) tau0, f_i, tau0) / 2) and the variance c / 2: 40 records of 2^15 samples of white
+// noise plus a 1.5-Hz-wide band at 20 Hz (weights a triangle over 24 bins); the mean WV of each level within 3
+// standard errors of the records' scatter (+ 1 %), and the mean variance within 3 standard errors.
+TEST(GmwmKnownTerms, SimulatedNarrowbandHasTheModelWaveletVariance) {
+  const double tau0 = 0.01, s2 = 1e-6, c = 2 * 4e-6;  // white variance per sample; band variance 4e-6
+  GmwmKnownTerm k;
+  k.type = "narrowband";
+  k.spectrum_bin_hz = 1.5 / 24;
+  double wsum = 0;
+  for (int i = 0; i < 24; ++i) {
+    k.spectrum_hz.push_back(20.0 - 0.75 + (i + 0.5) * k.spectrum_bin_hz);
+    k.spectrum_weight.push_back(12.0 - std::fabs(i - 11.5));
+    wsum += k.spectrum_weight.back();
+  }
+  for (auto& w : k.spectrum_weight) w /= wsum;
+  const std::vector<double> fh = k.spectrum_hz, wt = k.spectrum_weight;
+  k.basis = [fh, wt, tau0](double tau) {
+    double s = 0;
+    for (size_t i = 0; i < fh.size(); ++i) s += wt[i] * sinusoidAvar(tau, fh[i], tau0);
+    return s;
+  };
+  k.c = c;
+  GmwmFit fit;
+  fit.model = parseGmwmModel("WN");
+  fit.theta = Eigen::VectorXd::Constant(1, std::log(s2));
+  fit.tau0 = tau0;
+  fit.known = {k};
+  const int R = 40, n = 1 << 15;
+  std::vector<std::vector<double>> est;
+  WaveletVariance wv;
+  double vm = 0, vq = 0;
+  for (int r = 0; r < R; ++r) {
+    const std::vector<double> x = simulateGmwmFit(fit, tau0, n, 500 + r);
+    double m = 0, q = 0;
+    for (double v : x) m += v / n;
+    for (double v : x) q += (v - m) * (v - m) / (n - 1);
+    vm += q / R;
+    vq += q * q;
+    wv = haarWaveletVariance(x, tau0);
+    est.push_back(wv.nu2);
+  }
+  const double vsd = std::sqrt((vq - R * vm * vm) / (R - 1) / R);
+  EXPECT_NEAR(vm, s2 + c / 2, 3 * vsd);
+  for (size_t j = 0; j < wv.nu2.size(); ++j) {
+    double m = 0, q = 0;
+    for (const auto& e : est) m += e[j] / R;
+    for (const auto& e : est) q += (e[j] - m) * (e[j] - m) / (R - 1);
+    const double model = gmwmModelWvAt(fit, tau0, wv.level[j]);
+    EXPECT_NEAR(m / model, 1.0, 3 * std::sqrt(q / R) / model + 0.01) << "level " << wv.level[j];
+  }
 }
