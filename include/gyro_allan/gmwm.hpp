@@ -1,5 +1,6 @@
 // Generalized Method of Wavelet Moments (Guerrier et al. 2013): Haar MODWT wavelet variance, closed-form wavelet
-// variances of WN/QN/RW/DR/Gauss-Markov, efficient GMWM fit, model selection, and the filter-ready state-space model.
+// variances of WN/QN/RW/DR/Gauss-Markov (+ the model check's lines as known terms), efficient GMWM fit, model
+// selection, and the filter-ready state-space model.
 #pragma once
 
 #include <cstdint>

@@ -234,6 +234,13 @@ std::string gmwmSummary(const std::vector<AxisAnalysis>& axes) {
       out += buf;
     }
     out += "\n";
+    for (const auto& k : f.known) {  // the model check's spectral effects: in the fit, not in Phi/Qd
+      std::snprintf(buf, sizeof buf,
+                    "  known term %s at %.4g Hz, RMS %.4g deg/h: in the GMWM fit, not in the filter model (Phi/Qd)\n",
+                    k.type.c_str(), k.parameters.count("frequency_hz") ? k.parameters.at("frequency_hz") : 0.0,
+                    std::sqrt(k.c / 2) * 180 / M_PI * 3600);
+      out += buf;
+    }
     if (g.compared) {
       std::snprintf(buf, sizeof buf,
                     "  closed loop (tau %.3g..%.3g s): ADEV inside the data's CI at %d/%d points, worst ratio %.3f, "
