@@ -296,6 +296,20 @@ struct ReportedCandidate {
   std::string unidentified;          ///< terms not supported (empty when identified)
 };
 
+/// One effect of the model check as reported (noise_model.yaml "known_terms"): a known term of the GMWM fit
+/// (sinusoid, narrowband) or an effect the model leaves out (in_gmwm_fit false: type and note only).
+struct ReportedKnownTerm {
+  std::string type;                  ///< "sinusoid", "narrowband", "gauss_markov", "bias_step", ...
+  bool in_gmwm_fit = false;          ///< in the fit's WV, covariance, chi2/dof and the closed loop
+  bool in_state_space_model = false; ///< always false: not in Phi, Qd or measurement_variance
+  std::string kind;                  ///< "deterministic line" or "stationary narrowband oscillation (...)"
+  double frequency_hz = 0;           ///< [Hz] (0: not applicable)
+  double bandwidth_hz = 0;           ///< [Hz] narrowband only (0: not applicable)
+  double amplitude = 0, amplitude_sigma = 0;  ///< line: A of A sin(2 pi f t) [rad/s] (0: not applicable)
+  double rms = 0, rms_sigma = 0;     ///< sqrt(c / 2) [rad/s]
+  std::string note;                  ///< what a filter must do about it, or why it is not in the model
+};
+
 /// The noise model of one axis as reported (noise_model.yaml "axes.<axis>", README "noise_model.yaml").
 struct ReportedNoiseModel {
   bool ok = false;
@@ -317,9 +331,9 @@ struct ReportedNoiseModel {
   CurveAgreement gmwm_model, ieee_model, final_model;
   int wavelet_variance_points = 0, wavelet_variance_within_ci = 0;
   double wavelet_variance_confidence = 0;
-  // Known terms: fit.known (sinusoid / narrowband of the model check, in the fit and the closed loop, NOT in Phi/Qd
-  // or measurement_variance) and the model check's other effects, which the model does not contain.
-  std::vector<std::string> effects_not_in_model;
+  /// The model check's effects: fit.known (in the fit and the closed loop, NOT in Phi/Qd or measurement_variance),
+  /// then the other effects, which the model does not contain. Empty when the check found none.
+  std::vector<ReportedKnownTerm> known_terms;
 };
 
 /// The reported model of one axis's GMWM stage. filter_rate_hz <= 0: only the data rate's discrete model.

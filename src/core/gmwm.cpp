@@ -1230,7 +1230,32 @@ ReportedNoiseModel reportedNoiseModel(const GmwmAxis& g, double filter_rate_hz, 
   r.wavelet_variance_points = g.wv_points;
   r.wavelet_variance_within_ci = g.wv_within_ci;
   r.wavelet_variance_confidence = g.wv.confidence;
-  r.effects_not_in_model = g.effects_not_in_model;
+  for (const auto& k : r.fit.known) {
+    ReportedKnownTerm t;
+    t.type = k.type;
+    t.in_gmwm_fit = true;
+    t.kind = k.stochastic() ? "stationary narrowband oscillation (Gaussian, measured PSD shape)" : "deterministic line";
+    auto param = [&k](const char* name) { return k.parameters.count(name) ? k.parameters.at(name) : 0.0; };
+    t.frequency_hz = param("frequency_hz");
+    if (k.stochastic()) t.bandwidth_hz = param("bandwidth_hz");
+    // c = A^2 for a line A sin(2 pi f t); c = 2 var for a narrowband term: both have the RMS sqrt(c / 2).
+    t.rms = std::sqrt(k.c / 2);
+    t.rms_sigma = k.c > 0 ? t.rms * k.c_sd / (2 * k.c) : 0.0;
+    if (!k.stochastic()) {
+      t.amplitude = std::sqrt(k.c);
+      t.amplitude_sigma = t.rms_sigma * std::sqrt(2.0);
+    }
+    t.note = "not in Phi/Qd or measurement_variance: notch it out or model it separately (e.g. a second-order "
+             "oscillator state)";
+    r.known_terms.push_back(t);
+  }
+  for (const auto& e : g.effects_not_in_model) {  // "type: reason"
+    ReportedKnownTerm t;
+    const size_t colon = e.find(": ");
+    t.type = e.substr(0, colon);
+    t.note = colon == std::string::npos ? e : e.substr(colon + 2);
+    r.known_terms.push_back(t);
+  }
   return r;
 }
 

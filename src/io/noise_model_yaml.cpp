@@ -141,34 +141,23 @@ YAML::Node noiseModelNode(const std::vector<AxisAnalysis>& axes, double filter_r
     }
     c["gauss_markov"] = gms;
     n["continuous"] = c;
-    if (!f.known.empty() || !r.effects_not_in_model.empty()) {
-      // Effects of the model check: sinusoid / narrowband are known terms of the GMWM fit and its closed loop, but
+    if (!r.known_terms.empty()) {
+      // The model check's effects: sinusoid / narrowband are known terms of the GMWM fit and its closed loop, but
       // not part of the bias model (Phi, Qd, measurement_variance) below; the others are in no part of it.
       YAML::Node kn(YAML::NodeType::Sequence);
-      for (const auto& k : f.known) {
+      for (const auto& k : r.known_terms) {
         YAML::Node e;
         e["type"] = k.type;
-        e["in_gmwm_fit"] = true;
-        e["in_state_space_model"] = false;
-        e["kind"] = k.stochastic() ? "stationary narrowband oscillation (Gaussian, measured PSD shape)"
-                                   : "deterministic line";
-        for (const auto& p : k.parameters)
-          if (p.first == "frequency_hz" || p.first == "bandwidth_hz") e[p.first] = num(p.second);
-        // c = A^2 for a line A sin(2 pi f t); c = 2 var for a narrowband term: both give the RMS sqrt(c / 2).
-        const double sd = k.c_sd > 0 ? std::sqrt(k.c / 2) * k.c_sd / (2 * k.c) : 0.0;
-        if (!k.stochastic()) e["amplitude"] = valueSd(std::sqrt(k.c), sd * std::sqrt(2.0), "rad/s");
-        e["rms"] = valueSd(std::sqrt(k.c / 2), sd, "rad/s");
-        e["note"] = "not in Phi/Qd or measurement_variance: notch it out or model it separately (e.g. a "
-                    "second-order oscillator state)";
-        kn.push_back(e);
-      }
-      for (const auto& s : r.effects_not_in_model) {
-        YAML::Node e;
-        const size_t colon = s.find(':');
-        e["type"] = s.substr(0, colon);
-        e["in_gmwm_fit"] = false;
-        e["in_state_space_model"] = false;
-        e["note"] = colon == std::string::npos ? s : s.substr(colon + 2);
+        e["in_gmwm_fit"] = k.in_gmwm_fit;
+        e["in_state_space_model"] = k.in_state_space_model;
+        if (k.in_gmwm_fit) {
+          e["kind"] = k.kind;
+          if (k.frequency_hz > 0) e["frequency_hz"] = num(k.frequency_hz);
+          if (k.bandwidth_hz > 0) e["bandwidth_hz"] = num(k.bandwidth_hz);
+          if (k.amplitude > 0) e["amplitude"] = valueSd(k.amplitude, k.amplitude_sigma, "rad/s");
+          e["rms"] = valueSd(k.rms, k.rms_sigma, "rad/s");
+        }
+        e["note"] = k.note;
         kn.push_back(e);
       }
       n["known_terms"] = kn;
