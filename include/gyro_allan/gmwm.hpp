@@ -1,8 +1,11 @@
 // Generalized Method of Wavelet Moments (Guerrier et al. 2013): Haar MODWT wavelet variance, closed-form wavelet
-// variances of WN/QN/RW/DR/Gauss-Markov, efficient GMWM fit, model selection, and the filter-ready state-space model.
+// variances of WN/QN/RW/DR/Gauss-Markov (+ the model check's lines as known terms), efficient GMWM fit, model
+// selection, and the filter-ready state-space model.
 #pragma once
 
 #include <cstdint>
+#include <functional>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -60,6 +63,25 @@ double wvShortMemory(const std::vector<double>& acf, double tau);
 /// vector): sum_l sum_l' h_l h_l' acf(|l - l'|). O(tau^2); the reference for the closed forms (tests).
 double wvFromAutocovariance(const std::vector<double>& acf, int64_t tau);
 
+// ---- Known terms (effects found by the model check) ---------------------------------------------------------------
+/// An effect the model check found (model_check.hpp) entered into the GMWM as a fixed-shape term: its Haar WV at
+/// level j is c basis(2^(j-1) tau0) / 2 (nu_j^2 = AVAR(tau_j / 2) / 2). Only stationary spectral effects enter:
+/// "sinusoid" (a deterministic line, c = A^2 of A sin(2 pi f t)) and "narrowband" (a stationary Gaussian oscillation
+/// with the measured shape of its PSD excess, c = 2 x its variance). Neither is part of the state-space bias model
+/// (Phi, Qd): a filter must notch them or model them separately.
+struct GmwmKnownTerm {
+  std::string type;                        ///< "sinusoid" or "narrowband"
+  std::function<double(double tau)> basis; ///< AVAR per unit c at averaging time tau [s] (ExtraTerm::basis)
+  double c = 0;                            ///< amplitude coefficient (the model check's joint refit; fitted: GMWM's)
+  double c_sd = 0;                         ///< its 1-sigma (GMWM fit; 0 when fixed)
+  /// Spectral content: component frequencies [Hz] and weights summing to 1 (power of component i = c w_i / 2); one
+  /// line for a sinusoid; a narrowband's bins of width spectrum_bin_hz. Used by the covariance and the simulation.
+  std::vector<double> spectrum_hz, spectrum_weight;
+  double spectrum_bin_hz = 0;
+  std::map<std::string, double> parameters;  ///< the model check's parameters (SI: frequency_hz, bandwidth_hz, ...)
+  bool stochastic() const { return type == "narrowband"; }
+};
+
 // ---- Models -----------------------------------------------------------------------------------------------------
 /// A composite model: sum of the enabled processes.
 struct GmwmModel {
@@ -110,7 +132,10 @@ struct GmwmFit {
   bool identified = false;
   std::string unidentified;     ///< which terms were not
   std::vector<double> model_nu2;   ///< model WV at the levels
-  Eigen::VectorXd theta;        ///< internal log parameters
+  /// Known terms (GmwmOptions::known) with c as fitted (GmwmOptions::refit_known) or as given; part of model_nu2 and
+  /// of gmwmModelAvar / gmwmModelWvAt / simulateGmwmFit, not of discretize().
+  std::vector<GmwmKnownTerm> known;
+  Eigen::VectorXd theta;        ///< internal log parameters (then log c of each known term when refitted)
   Eigen::MatrixXd theta_cov;
   int iterations = 0;
 };
@@ -133,12 +158,28 @@ struct GmwmOptions {
   double max_log_sd = 0.5;      ///< see GmwmFit::identified
   int weighting_iterations = 3; ///< Omega re-evaluated at the current estimate this many times
   double confidence = 0.95;     ///< of the wavelet-variance CI
+  /// Known terms (effects of the model check, docs/gmwm.md "Known terms") added to every candidate's theoretical WV
+  /// and to its WV covariance. Empty: the fit is exactly the one without them.
+  std::vector<GmwmKnownTerm> known;
+  /// Re-estimate each known term's c as a non-negative weight (a log parameter started at the given c, counted in
+  /// the parameters and dof; the same for every candidate, so the selection is unchanged by it); false: fixed at c.
+  bool refit_known = true;
 };
+
+/// The known terms' WV at the levels of wv (sum over terms of c basis(2^(j-1) tau0) / 2).
+std::vector<double> knownTermsWv(const WaveletVariance& wv, const std::vector<GmwmKnownTerm>& known);
 
 /// Model-based covariance of the WV estimates (asymptotic, Gaussian process): Cov(nu_j, nu_k) =
 /// 2 min(M_j, M_k) / (M_j M_k) * integral_{-1/2}^{1/2} |H_j(f)|^2 |H_k(f)|^2 S(f)^2 df, S the model's two-sided
 /// spectrum in sample units (the drift, deterministic, contributes nothing). Exposed for tests.
 Eigen::MatrixXd gmwmCovariance(const WaveletVariance& wv, const GmwmModel& model, const Eigen::VectorXd& theta);
+/// What the known terms add to that covariance (same Gaussian asymptotics; the fit's Omega is the sum): with the total
+/// spectrum S + S_k, S_k = sum_i p_i/2 (delta(f - f_i) + delta(f + f_i)), p_i = c w_i / 2, the integral gains the cross
+/// term 2 sum_i p_i G_j(f_i) G_k(f_i) S(f_i) (for a deterministic line exactly the variance of 2 W_line W_noise) and,
+/// for a narrowband term with its power p_i spread over a bin of width w (cycles/sample), its own
+/// sum_i p_i^2 G_j G_k / (2 w); a line's own part is deterministic: none. G_j = |H_j|^2. theta: the stochastic part.
+Eigen::MatrixXd gmwmKnownCovariance(const WaveletVariance& wv, const GmwmModel& model, const Eigen::VectorXd& theta,
+                                    const std::vector<GmwmKnownTerm>& known);
 /// Model WV at the levels of wv for internal parameters theta.
 std::vector<double> gmwmModelWv(const WaveletVariance& wv, const GmwmModel& model, const Eigen::VectorXd& theta);
 
@@ -215,10 +256,19 @@ struct GmwmAxis {
   CurveAgreement gmwm_vs_data, ieee_vs_data;
   CurveAgreement final_vs_data;  ///< the report's final model (IEEE terms + the model check's effects, or the split)
   double worst_avar_ratio_vs_ieee = 1;  ///< max over the same points of the AVAR ratio GMWM / IEEE model (or inverse)
+  /// Effects of the model check that are not known terms of the fit, "type: reason" (knownTermsFromEffects).
+  std::vector<std::string> effects_not_in_model;
 };
 
 /// WV and model selection on one gap-free segment of rate samples. Never throws: ok = false with a message.
 GmwmAxis gmwmStage(const std::vector<double>& rate, double tau0, const GmwmOptions& options = {});
+/// The model check's effects as known terms: sinusoid and narrowband enter (c from the check's joint refit);
+/// the others are returned in *left_out as "type: reason" (gauss_markov / short_correlation: the GMWM's own GM / MA(q)
+/// terms model it; bias_step, thermal_drift, warmup, outliers: not stationary, no wavelet-variance term).
+struct DetectedEffect;
+std::vector<GmwmKnownTerm> knownTermsFromEffects(const std::vector<DetectedEffect>& effects,
+                                                 const std::vector<double>& extra_c,
+                                                 std::vector<std::string>* left_out);
 /// Fills the closed-loop comparison (ieee_model_var: the IEEE model's AVAR at oadev's points).
 /// final_model_var (optional): the report's final model at the same points.
 void gmwmCompare(GmwmAxis* g, const DeviationCurve& oadev, const std::vector<double>& ieee_model_var,
@@ -246,6 +296,20 @@ struct ReportedCandidate {
   std::string unidentified;          ///< terms not supported (empty when identified)
 };
 
+/// One effect of the model check as reported (noise_model.yaml "known_terms"): a known term of the GMWM fit
+/// (sinusoid, narrowband) or an effect the model leaves out (in_gmwm_fit false: type and note only).
+struct ReportedKnownTerm {
+  std::string type;                  ///< "sinusoid", "narrowband", "gauss_markov", "bias_step", ...
+  bool in_gmwm_fit = false;          ///< in the fit's WV, covariance, chi2/dof and the closed loop
+  bool in_state_space_model = false; ///< always false: not in Phi, Qd or measurement_variance
+  std::string kind;                  ///< "deterministic line" or "stationary narrowband oscillation (...)"
+  double frequency_hz = 0;           ///< [Hz] (0: not applicable)
+  double bandwidth_hz = 0;           ///< [Hz] narrowband only (0: not applicable)
+  double amplitude = 0, amplitude_sigma = 0;  ///< line: A of A sin(2 pi f t) [rad/s] (0: not applicable)
+  double rms = 0, rms_sigma = 0;     ///< sqrt(c / 2) [rad/s]
+  std::string note;                  ///< what a filter must do about it, or why it is not in the model
+};
+
 /// The noise model of one axis as reported (noise_model.yaml "axes.<axis>", README "noise_model.yaml").
 struct ReportedNoiseModel {
   bool ok = false;
@@ -267,6 +331,9 @@ struct ReportedNoiseModel {
   CurveAgreement gmwm_model, ieee_model, final_model;
   int wavelet_variance_points = 0, wavelet_variance_within_ci = 0;
   double wavelet_variance_confidence = 0;
+  /// The model check's effects: fit.known (in the fit and the closed loop, NOT in Phi/Qd or measurement_variance),
+  /// then the other effects, which the model does not contain. Empty when the check found none.
+  std::vector<ReportedKnownTerm> known_terms;
 };
 
 /// The reported model of one axis's GMWM stage. filter_rate_hz <= 0: only the data rate's discrete model.

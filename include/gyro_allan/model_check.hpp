@@ -76,6 +76,10 @@ struct DetectedEffect {
   std::string evidence;   ///< what in the raw samples pointed to it
   double delta_bic = 0;   ///< BIC improvement when it was added (positive = better)
   ExtraTerm term;         ///< its AVAR basis (per unit c) as fitted
+  /// Sinusoid / narrowband: the spectral content behind `term` (frequencies [Hz], weights summing to 1, bin width
+  /// [Hz]; a sinusoid is one line of width 0): term.basis = sum_i w_i sinusoidAvar(tau, f_i, tau0). Empty otherwise.
+  std::vector<double> spectrum_hz, spectrum_weight;
+  double spectrum_bin_hz = 0;
 };
 
 struct FitSummary {

@@ -275,7 +275,13 @@ void AxisStages::pulseTimes() {
 AxisAnalysis AxisStages::finish() {
   if (!prepared_) throw std::logic_error("AxisStages::finish before prepare");
   if (options_.gmwm && longest_ < segments_.size()) {  // GMWM stage (gmwm.hpp), before the samples are freed
-    a_.gmwm = gmwmStage(segments_[longest_], tau0_, options_.gmwm_options);
+    // The model check's stationary spectral effects (sinusoid, narrowband) enter as known terms (docs/gmwm.md).
+    GmwmOptions go = options_.gmwm_options;
+    std::vector<std::string> left_out;
+    if (a_.has_check && go.known.empty())
+      go.known = knownTermsFromEffects(a_.check.effects, a_.check.fit_after.extra_c, &left_out);
+    a_.gmwm = gmwmStage(segments_[longest_], tau0_, go);
+    a_.gmwm.effects_not_in_model = left_out;
     a_.has_gmwm = true;
   }
   if (longest_ < segments_.size()) pulseTimes();

@@ -6,12 +6,16 @@
 #include <cctype>
 #include <functional>
 #include <cmath>
+#include <complex>
 #include <cstdio>
 #include <limits>
 #include <random>
 #include <stdexcept>
 
 #include <boost/math/distributions/chi_squared.hpp>
+#include <unsupported/Eigen/FFT>
+
+#include "gyro_allan/model_check.hpp"
 
 namespace gyro_allan {
 
@@ -284,6 +288,30 @@ std::vector<double> gmwmModelWv(const WaveletVariance& wv, const GmwmModel& mode
   return out;
 }
 
+std::vector<double> knownTermsWv(const WaveletVariance& wv, const std::vector<GmwmKnownTerm>& known) {
+  std::vector<double> out(wv.level.size(), 0.0);
+  for (const auto& k : known)
+    for (size_t j = 0; j < out.size(); ++j)
+      out[j] += k.c * k.basis(std::ldexp(wv.tau0, wv.level[j] - 1)) / 2.0;
+  return out;
+}
+
+namespace {
+
+/// Haar MODWT squared gain at level with half-length m, f in cycles/sample: sin^4(pi f m) / (m^2 sin^2(pi f)).
+double haarGain(double f, double m) {
+  const double s = std::sin(M_PI * f);
+  if (std::fabs(s) < 1e-300) return 0.0;
+  const double a = std::sin(M_PI * f * m);
+  return a * a * a * a / (m * m * s * s);
+}
+
+/// gmwmKnownCovariance on a layout.
+Eigen::MatrixXd knownCovariance(const WaveletVariance& wv, const Layout& L, const Eigen::VectorXd& th,
+                                const std::vector<GmwmKnownTerm>& known);
+
+}  // namespace
+
 Eigen::MatrixXd gmwmCovariance(const WaveletVariance& wv, const GmwmModel& model, const Eigen::VectorXd& theta) {
   const Layout L(model);
   const int J = static_cast<int>(wv.level.size());
@@ -355,18 +383,87 @@ Eigen::MatrixXd gmwmCovariance(const WaveletVariance& wv, const GmwmModel& model
 
 namespace {
 
+Eigen::MatrixXd knownCovariance(const WaveletVariance& wv, const Layout& L, const Eigen::VectorXd& th,
+                                const std::vector<GmwmKnownTerm>& known) {
+  const int J = static_cast<int>(wv.level.size());
+  Eigen::MatrixXd C = Eigen::MatrixXd::Zero(J, J);
+  const std::vector<double> ma_acf = L.ma >= 0 ? maAcf(L, th) : std::vector<double>();
+  for (const auto& k : known) {
+    for (size_t i = 0; i < k.spectrum_hz.size(); ++i) {
+      const double f = k.spectrum_hz[i] * wv.tau0;  // cycles/sample
+      if (!(f > 0) || f >= 0.5) continue;
+      const double p = k.c * k.spectrum_weight[i] / 2.0;
+      const double sn = std::sin(M_PI * f);
+      const double Se = spectrum(L, th, f, sn * sn, ma_acf);
+      const double w = k.spectrum_bin_hz * wv.tau0;
+      const double self = k.stochastic() && w > 0 ? p * p / (2.0 * w) : 0.0;
+      std::vector<double> G(static_cast<size_t>(J));
+      for (int a = 0; a < J; ++a) G[static_cast<size_t>(a)] = haarGain(f, std::ldexp(1.0, wv.level[a] - 1));
+      for (int a = 0; a < J; ++a)
+        for (int b = a; b < J; ++b) {
+          const double Ma = static_cast<double>(wv.n_coeffs[a]), Mb = static_cast<double>(wv.n_coeffs[b]);
+          const double v = 2.0 * std::min(Ma, Mb) / (Ma * Mb) * G[static_cast<size_t>(a)] *
+                           G[static_cast<size_t>(b)] * (2.0 * p * Se + self);
+          C(a, b) += v;
+          if (b != a) C(b, a) += v;
+        }
+    }
+  }
+  return C;
+}
+
+}  // namespace
+
+Eigen::MatrixXd gmwmKnownCovariance(const WaveletVariance& wv, const GmwmModel& model, const Eigen::VectorXd& theta,
+                                    const std::vector<GmwmKnownTerm>& known) {
+  return knownCovariance(wv, Layout(model), theta, known);
+}
+
+namespace {
+
 struct Problem {
   const WaveletVariance* wv;
   Layout L;
+  // Known terms: WV per unit c at each level (J x K), refitted from theta[L.p + k] as log c, or a fixed sum kfix.
+  std::vector<GmwmKnownTerm> known;
+  bool refit = false;
+  Eigen::MatrixXd kb;
+  Eigen::VectorXd kfix;
   Eigen::VectorXd y;   // nu_hat
   Eigen::MatrixXd Winv_chol_inv;  // whitening: r_w = T r with T' T = W
   Eigen::VectorXd lo, hi;         // parameter bounds
 };
 
+/// Model WV at level index j: the stochastic terms plus the known terms.
+double problemWv(const Problem& P, const Eigen::VectorXd& th, int j) {
+  double v = modelWvAt(P.L, th, std::ldexp(1.0, P.wv->level[j]));
+  if (P.refit) {
+    for (int k = 0; k < P.kb.cols(); ++k) v += std::exp(th[P.L.p + k]) * P.kb(j, k);
+  } else if (P.kfix.size() > 0) {
+    v += P.kfix[j];
+  }
+  return v;
+}
+
+/// The known terms with c taken from th (refit) or as given.
+std::vector<GmwmKnownTerm> knownAt(const Problem& P, const Eigen::VectorXd& th) {
+  std::vector<GmwmKnownTerm> k = P.known;
+  if (P.refit)
+    for (size_t i = 0; i < k.size(); ++i) k[i].c = std::exp(th[P.L.p + static_cast<int>(i)]);
+  return k;
+}
+
+/// Omega at th: the stochastic terms' model-based covariance plus the known terms' part.
+Eigen::MatrixXd problemCovariance(const Problem& P, const GmwmModel& model, const Eigen::VectorXd& th) {
+  Eigen::MatrixXd C = gmwmCovariance(*P.wv, model, th);
+  if (!P.known.empty()) C += knownCovariance(*P.wv, P.L, th, knownAt(P, th));
+  return C;
+}
+
 Eigen::VectorXd residual(const Problem& P, const Eigen::VectorXd& th) {
   const int J = static_cast<int>(P.y.size());
   Eigen::VectorXd r(J);
-  for (int j = 0; j < J; ++j) r[j] = P.y[j] - modelWvAt(P.L, th, std::ldexp(1.0, P.wv->level[j]));
+  for (int j = 0; j < J; ++j) r[j] = P.y[j] - problemWv(P, th, j);
   return P.Winv_chol_inv * r;
 }
 
@@ -379,10 +476,7 @@ Eigen::MatrixXd jacobian(const Problem& P, const Eigen::VectorXd& th) {
     const double h = 1e-5;
     tp[k] += h;
     tm[k] -= h;
-    for (int j = 0; j < J; ++j) {
-      const double tau = std::ldexp(1.0, P.wv->level[j]);
-      D(j, k) = (modelWvAt(P.L, tp, tau) - modelWvAt(P.L, tm, tau)) / (2 * h);
-    }
+    for (int j = 0; j < J; ++j) D(j, k) = (problemWv(P, tp, j) - problemWv(P, tm, j)) / (2 * h);
   }
   return D;
 }
@@ -451,17 +545,37 @@ double nearestNu(const WaveletVariance& wv, double tau_samples) {
 }
 
 /// The fitting problem of `model` on `wv`: data, log-parameter bounds and first-pass (diagonal) weights.
-Problem makeProblem(const WaveletVariance& wv, const Layout& L) {
+Problem makeProblem(const WaveletVariance& wv, const Layout& L, const GmwmOptions& options) {
   const int J = static_cast<int>(wv.level.size());
   Problem P;
   P.wv = &wv;
   P.L = L;
+  P.known = options.known;
+  const int K = static_cast<int>(P.known.size());
+  P.refit = options.refit_known && K > 0;
+  if (K > 0) {
+    P.kb = Eigen::MatrixXd::Zero(J, K);
+    for (int k = 0; k < K; ++k)
+      for (int j = 0; j < J; ++j)
+        P.kb(j, k) = P.known[static_cast<size_t>(k)].basis(std::ldexp(wv.tau0, wv.level[j] - 1)) / 2.0;
+    if (!P.refit) {
+      P.kfix = Eigen::VectorXd::Zero(J);
+      for (int k = 0; k < K; ++k) P.kfix += P.known[static_cast<size_t>(k)].c * P.kb.col(k);
+    }
+  }
+  const int np = L.p + (P.refit ? K : 0);
   P.y = Eigen::Map<const Eigen::VectorXd>(wv.nu2.data(), J);
   const double tau_max = std::ldexp(1.0, wv.level.back());
   const double nu_scale = *std::max_element(wv.nu2.begin(), wv.nu2.end());
   const double tiny = std::log(nu_scale * 1e-14), huge = std::log(nu_scale * 1e8 * tau_max);
-  P.lo = Eigen::VectorXd::Constant(L.p, tiny - std::log(tau_max * tau_max));
-  P.hi = Eigen::VectorXd::Constant(L.p, huge);
+  P.lo = Eigen::VectorXd::Constant(np, tiny - std::log(tau_max * tau_max));
+  P.hi = Eigen::VectorXd::Constant(np, huge);
+  if (P.refit)  // a known term's c within 10^-6..10^3 of the model check's
+    for (int k = 0; k < K; ++k) {
+      const double c0 = std::max(P.known[static_cast<size_t>(k)].c, 1e-300);
+      P.lo[L.p + k] = std::log(c0) - 6 * std::log(10.0);
+      P.hi[L.p + k] = std::log(c0) + 3 * std::log(10.0);
+    }
   for (int i = 0; i < L.n_gm; ++i) {
     P.lo[L.gm0 + 2 * i + 1] = std::log(0.25);                  // correlation time >= a quarter sample
     P.hi[L.gm0 + 2 * i + 1] = std::log(4.0 * static_cast<double>(wv.n));  // <= 4 record lengths
@@ -525,7 +639,8 @@ Eigen::VectorXd bestStart(const Problem& P, const WaveletVariance& wv, const Gmw
   Eigen::VectorXd best;
   std::vector<std::pair<double, Eigen::VectorXd>> starts;
   for (const auto& c : combos) {
-    Eigen::VectorXd th(L.p);
+    Eigen::VectorXd th(P.lo.size());
+    for (int k = L.p; k < th.size(); ++k) th[k] = std::log(std::max(P.known[static_cast<size_t>(k - L.p)].c, 1e-300));
     const double share = 1.0 / (1 + L.n_gm + (model.random_walk ? 1 : 0));
     if (L.wn >= 0) th[L.wn] = std::log(2.0 * wv.nu2[0] * 0.9);
     if (L.ma >= 0) {  // white start: innovation as WN, theta = 0
@@ -571,7 +686,7 @@ Eigen::VectorXd sortGaussMarkov(const Layout& L, const Eigen::VectorXd& best) {
 
 /// Covariance of the log parameters at `theta` under the problem's current weights.
 Eigen::MatrixXd parameterCovariance(const Problem& P, const Eigen::VectorXd& theta) {
-  const int p = P.L.p;
+  const int p = static_cast<int>(theta.size());
   const Eigen::MatrixXd Jw = P.Winv_chol_inv * jacobian(P, theta);
   const Eigen::MatrixXd info = Jw.transpose() * Jw;
   // Pseudo-inverse in correlation form: a direction the data do not inform (a term at its bound) gets an
@@ -673,16 +788,22 @@ GmwmFit fitGmwm(const WaveletVariance& wv, const GmwmModel& model, const GmwmOpt
     fit.message = "model has no term";
     return fit;
   }
-  if (J <= L.p) {
-    fit.message = "too few wavelet levels (" + std::to_string(J) + ") for " + std::to_string(L.p) + " parameters";
+  const int np = L.p + (options.refit_known ? static_cast<int>(options.known.size()) : 0);
+  if (J <= np) {
+    fit.message = "too few wavelet levels (" + std::to_string(J) + ") for " + std::to_string(np) + " parameters";
     return fit;
   }
+  for (const auto& k : options.known)
+    if (!k.basis || !(k.c > 0) || !std::isfinite(k.c) || k.spectrum_hz.size() != k.spectrum_weight.size()) {
+      fit.message = "known term '" + k.type + "' has no basis, a non-positive c or inconsistent spectrum";
+      return fit;
+    }
   for (double v : wv.nu2)
     if (!(v > 0) || !std::isfinite(v)) {
       fit.message = "a wavelet variance is zero or not finite (constant or broken data)";
       return fit;
     }
-  Problem P = makeProblem(wv, L);
+  Problem P = makeProblem(wv, L, options);
   // Robust starting values: WN from level 1, RW from the last level, GMs placed over a grid of correlation times with
   // their variance from the WV near their peak scale (~4 tc); every combination is refined, the best kept.
   int iters = 0;
@@ -690,11 +811,11 @@ GmwmFit fitGmwm(const WaveletVariance& wv, const GmwmModel& model, const GmwmOpt
   // Efficient weighting: Omega at the current estimate, refit, repeat.
   Eigen::MatrixXd omega;
   for (int k = 0; k < std::max(1, options.weighting_iterations); ++k) {
-    omega = gmwmCovariance(wv, model, best);
+    omega = problemCovariance(P, model, best);
     setWeights(&P, omega);
     levenbergMarquardt(P, &best, 200, &iters);
   }
-  omega = gmwmCovariance(wv, model, best);
+  omega = problemCovariance(P, model, best);
   setWeights(&P, omega);
   const Eigen::VectorXd rw = residual(P, best);
   fit.chi2 = rw.squaredNorm();
@@ -703,10 +824,15 @@ GmwmFit fitGmwm(const WaveletVariance& wv, const GmwmModel& model, const GmwmOpt
   // Sort GMs by correlation time.
   fit.theta = sortGaussMarkov(L, best);
   fit.theta_cov = parameterCovariance(P, fit.theta);
-  fit.dof = J - L.p;
+  fit.dof = J - np;
   fit.chi2_p = fit.dof > 0 ? boost::math::cdf(boost::math::complement(boost::math::chi_squared(fit.dof), fit.chi2)) : 1.0;
-  fit.criterion = fit.chi2 + options.penalty_per_parameter * L.p;
-  fit.model_nu2 = gmwmModelWv(wv, model, fit.theta);
+  fit.criterion = fit.chi2 + options.penalty_per_parameter * np;
+  fit.model_nu2.resize(static_cast<size_t>(J));
+  for (int j = 0; j < J; ++j) fit.model_nu2[static_cast<size_t>(j)] = problemWv(P, fit.theta, j);
+  fit.known = knownAt(P, fit.theta);
+  if (P.refit)
+    for (size_t k = 0; k < fit.known.size(); ++k)
+      fit.known[k].c_sd = fit.known[k].c * logSd(fit, L.p + static_cast<int>(k));
   fillSiValues(L, &fit);
   checkIdentified(L, options.max_log_sd, &fit);
   fit.ok = fit.theta.allFinite() && std::isfinite(fit.chi2);
@@ -775,21 +901,23 @@ GmwmSelection selectGmwm(const WaveletVariance& wv, const GmwmOptions& options) 
 // ---- Model AVAR and discretization ---------------------------------------------------------------------------------
 
 double gmwmModelWvAt(const GmwmFit& fit, double tau0, int level) {
-  (void)tau0;
-  return modelWvAt(Layout(fit.model), fit.theta, std::ldexp(1.0, level));
+  double v = modelWvAt(Layout(fit.model), fit.theta, std::ldexp(1.0, level));
+  for (const auto& k : fit.known) v += k.c * k.basis(std::ldexp(tau0, level - 1)) / 2.0;
+  return v;
 }
 
 double gmwmModelAvar(const GmwmFit& fit, double tau0, int64_t m) {
-  (void)tau0;
   if (m < 1) throw std::invalid_argument("gmwmModelAvar: m must be >= 1");
-  return 2.0 * modelWvAt(Layout(fit.model), fit.theta, 2.0 * static_cast<double>(m));
+  double v = 2.0 * modelWvAt(Layout(fit.model), fit.theta, 2.0 * static_cast<double>(m));
+  for (const auto& k : fit.known) v += k.c * k.basis(static_cast<double>(m) * tau0);
+  return v;
 }
 
 std::vector<double> simulateGmwmFit(const GmwmFit& fit, double tau0, int64_t n, uint64_t seed) {
   if (!(tau0 > 0) || n < 1) throw std::invalid_argument("simulateGmwmFit: tau0 > 0 and n >= 1 needed");
   const Layout L(fit.model);
   const Eigen::VectorXd& th = fit.theta;
-  if (th.size() != L.p) throw std::invalid_argument("simulateGmwmFit: theta does not match the model");
+  if (th.size() < L.p) throw std::invalid_argument("simulateGmwmFit: theta does not match the model");
   std::mt19937_64 rng(seed);
   std::normal_distribution<double> nd;
   std::vector<double> x(static_cast<size_t>(n), 0.0);
@@ -827,6 +955,47 @@ std::vector<double> simulateGmwmFit(const GmwmFit& fit, double tau0, int64_t n, 
     if (L.rw >= 0) y += (walk += rw * nd(rng));
     if (L.dr >= 0) y += dr * static_cast<double>(t);
     x[static_cast<size_t>(t)] = y;
+  }
+  // Known terms (drawn after the stochastic terms: a fit without them simulates exactly as before).
+  std::uniform_real_distribution<double> ud(0.0, 2.0 * M_PI);
+  for (const auto& k : fit.known) {
+    if (!k.stochastic()) {  // deterministic lines: sqrt(c w_i) sin(2 pi f_i t + phase_i), random phase
+      for (size_t i = 0; i < k.spectrum_hz.size(); ++i) {
+        const double A = std::sqrt(k.c * k.spectrum_weight[i]), w = 2.0 * M_PI * k.spectrum_hz[i] * tau0;
+        const double ph = ud(rng);
+        for (int64_t t = 0; t < n; ++t) x[static_cast<size_t>(t)] += A * std::sin(w * static_cast<double>(t) + ph);
+      }
+      continue;
+    }
+    // Narrowband: a stationary Gaussian process with the term's spectrum, by inverse FFT over N >= n samples:
+    // x_t = sum_k a_k cos(2 pi k t / N) + b_k sin(2 pi k t / N), a_k, b_k ~ N(0, s_k^2), the power c w_i / 2 of
+    // component i spread evenly over the FFT bins inside its bin (or put in the nearest FFT bin when narrower).
+    int64_t N = 1;
+    while (N < n) N *= 2;
+    const double dfN = 1.0 / (static_cast<double>(N) * tau0);
+    std::vector<double> var(static_cast<size_t>(N / 2 + 1), 0.0);
+    for (size_t i = 0; i < k.spectrum_hz.size(); ++i) {
+      const double p = k.c * k.spectrum_weight[i] / 2.0, f = k.spectrum_hz[i], w = k.spectrum_bin_hz;
+      const int64_t a = std::max<int64_t>(1, static_cast<int64_t>(std::ceil((f - w / 2) / dfN)));
+      const int64_t b = std::min<int64_t>(N / 2 - 1, static_cast<int64_t>(std::ceil((f + w / 2) / dfN)) - 1);
+      if (b >= a) {
+        for (int64_t q = a; q <= b; ++q) var[static_cast<size_t>(q)] += p / static_cast<double>(b - a + 1);
+      } else {
+        const int64_t q = std::min<int64_t>(N / 2 - 1, std::max<int64_t>(1, std::llround(f / dfN)));
+        var[static_cast<size_t>(q)] += p;
+      }
+    }
+    std::vector<std::complex<double>> X(static_cast<size_t>(N / 2 + 1));
+    for (size_t q = 0; q < X.size(); ++q) {
+      if (!(var[q] > 0)) continue;
+      const double sd = std::sqrt(var[q]);
+      X[q] = std::complex<double>(0.5 * static_cast<double>(N) * sd * nd(rng), -0.5 * static_cast<double>(N) * sd * nd(rng));
+    }
+    Eigen::FFT<double> fft;
+    fft.SetFlag(Eigen::FFT<double>::HalfSpectrum);
+    std::vector<double> y;
+    fft.inv(y, X, static_cast<int>(N));
+    for (int64_t t = 0; t < n; ++t) x[static_cast<size_t>(t)] += y[static_cast<size_t>(t)];
   }
   return x;
 }
@@ -959,6 +1128,37 @@ GmwmAxis gmwmStage(const std::vector<double>& rate, double tau0, const GmwmOptio
   return g;
 }
 
+std::vector<GmwmKnownTerm> knownTermsFromEffects(const std::vector<DetectedEffect>& effects,
+                                                 const std::vector<double>& extra_c,
+                                                 std::vector<std::string>* left_out) {
+  std::vector<GmwmKnownTerm> out;
+  for (size_t i = 0; i < effects.size(); ++i) {
+    const DetectedEffect& e = effects[i];
+    const double c = i < extra_c.size() ? extra_c[i] : 0.0;
+    if (e.type == "sinusoid" || e.type == "narrowband") {
+      if (!(c > 0) || !e.term.basis || e.spectrum_hz.empty() || e.spectrum_hz.size() != e.spectrum_weight.size()) {
+        if (left_out) left_out->push_back(e.type + ": no positive amplitude or spectral content from the model check");
+        continue;
+      }
+      GmwmKnownTerm k;
+      k.type = e.type;
+      k.basis = e.term.basis;
+      k.c = c;
+      k.spectrum_hz = e.spectrum_hz;
+      k.spectrum_weight = e.spectrum_weight;
+      k.spectrum_bin_hz = e.spectrum_bin_hz;
+      for (const auto& p : e.parameters) k.parameters[p.first] = p.second.value;
+      out.push_back(k);
+    } else if (left_out) {
+      std::string why = ": not stationary, no wavelet-variance term; not in this model";
+      if (e.type == "gauss_markov") why = ": not a known term, the GMWM's own GM terms model it";
+      if (e.type == "short_correlation") why = ": not a known term, the GMWM's own MA(q) measurement noise models it";
+      left_out->push_back(e.type + why);
+    }
+  }
+  return out;
+}
+
 void gmwmCompare(GmwmAxis* g, const DeviationCurve& oadev, const std::vector<double>& ieee_model_var,
                  const std::vector<double>& final_model_var) {
   if (!g || !g->ok) return;
@@ -1030,6 +1230,32 @@ ReportedNoiseModel reportedNoiseModel(const GmwmAxis& g, double filter_rate_hz, 
   r.wavelet_variance_points = g.wv_points;
   r.wavelet_variance_within_ci = g.wv_within_ci;
   r.wavelet_variance_confidence = g.wv.confidence;
+  for (const auto& k : r.fit.known) {
+    ReportedKnownTerm t;
+    t.type = k.type;
+    t.in_gmwm_fit = true;
+    t.kind = k.stochastic() ? "stationary narrowband oscillation (Gaussian, measured PSD shape)" : "deterministic line";
+    auto param = [&k](const char* name) { return k.parameters.count(name) ? k.parameters.at(name) : 0.0; };
+    t.frequency_hz = param("frequency_hz");
+    if (k.stochastic()) t.bandwidth_hz = param("bandwidth_hz");
+    // c = A^2 for a line A sin(2 pi f t); c = 2 var for a narrowband term: both have the RMS sqrt(c / 2).
+    t.rms = std::sqrt(k.c / 2);
+    t.rms_sigma = k.c > 0 ? t.rms * k.c_sd / (2 * k.c) : 0.0;
+    if (!k.stochastic()) {
+      t.amplitude = std::sqrt(k.c);
+      t.amplitude_sigma = t.rms_sigma * std::sqrt(2.0);
+    }
+    t.note = "not in Phi/Qd or measurement_variance: notch it out or model it separately (e.g. a second-order "
+             "oscillator state)";
+    r.known_terms.push_back(t);
+  }
+  for (const auto& e : g.effects_not_in_model) {  // "type: reason"
+    ReportedKnownTerm t;
+    const size_t colon = e.find(": ");
+    t.type = e.substr(0, colon);
+    t.note = colon == std::string::npos ? e : e.substr(colon + 2);
+    r.known_terms.push_back(t);
+  }
   return r;
 }
 

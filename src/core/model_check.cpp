@@ -58,6 +58,8 @@ struct Candidate {
   std::string nonlinear_name;             // name of the searched parameter in the report
   std::string amplitude_name;             // name of sqrt(c) in the report
   double amplitude_sign = 1.0;
+  std::vector<double> spectrum_hz, spectrum_weight;  // sinusoid / narrowband: DetectedEffect's spectral content
+  double spectrum_bin_hz = 0;
   bool used = false;
 };
 
@@ -763,6 +765,11 @@ Candidate spectralCandidate(const CheckInput& in, const SpectralPeak& pk, bool b
     for (auto& v : *wts) v /= fe.total;
     const double fs0 = fe.f_start, dfe = fe.df;
     shape = [wts, fs0, dfe, t0](double tau) { return 0.5 * spectrumAvar(tau, fs0, dfe, *wts, t0); };
+    for (size_t i = 0; i < wts->size(); ++i) {
+      c.spectrum_hz.push_back(fs0 + static_cast<double>(i) * dfe);
+      c.spectrum_weight.push_back((*wts)[i]);
+    }
+    c.spectrum_bin_hz = dfe;
   } else if (!line && !pk.profile_f.empty()) {
     // No mid-resolution PSD (short record): the peak finder's own profile of the feature.
     auto fr = std::make_shared<std::vector<double>>(pk.profile_f);
@@ -770,6 +777,9 @@ Candidate spectralCandidate(const CheckInput& in, const SpectralPeak& pk, bool b
     double wsum = 0;
     for (double v : *wt) wsum += v;
     for (auto& v : *wt) v /= (wsum > 0 ? wsum : 1.0);
+    c.spectrum_hz = *fr;
+    c.spectrum_weight = *wt;
+    c.spectrum_bin_hz = fr->size() > 1 ? ((*fr)[fr->size() - 1] - (*fr)[0]) / static_cast<double>(fr->size() - 1) : pk.df;
     shape = [fr, wt, t0](double tau) {
       double s = 0;
       for (size_t i = 0; i < fr->size(); ++i) s += (*wt)[i] * sinusoidAvar(tau, (*fr)[i], t0);
@@ -786,6 +796,8 @@ Candidate spectralCandidate(const CheckInput& in, const SpectralPeak& pk, bool b
     });
   } else {
     c.make = termMaker("sinusoid", [f0, t0](double, double tau) { return sinusoidAvar(tau, f0, t0); });
+    c.spectrum_hz = {f0};
+    c.spectrum_weight = {1.0};
   }
   c.fixed["frequency_hz"] = {f0, line ? pk.df / 2 : pk.df};
   if (!line) c.fixed["bandwidth_hz"] = {pk.bandwidth_hz, pk.df};
@@ -1206,6 +1218,9 @@ bool admitBest(const CheckInput& in, const std::vector<bool>& rms_mask, std::vec
     eff.delta_bic = gain;
     eff.term = best.term;
     eff.parameters = c.fixed;
+    eff.spectrum_hz = c.spectrum_hz;
+    eff.spectrum_weight = c.spectrum_weight;
+    eff.spectrum_bin_hz = c.spectrum_bin_hz;
     if (!c.nonlinear_name.empty()) eff.parameters[c.nonlinear_name] = {best.p, best.p_sigma};
     eff.parameters[c.amplitude_name] = {c.amplitude_sign, 0.0};  // filled below from the joint refit
     sel->kept.push_back(eff);

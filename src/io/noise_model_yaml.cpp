@@ -141,6 +141,27 @@ YAML::Node noiseModelNode(const std::vector<AxisAnalysis>& axes, double filter_r
     }
     c["gauss_markov"] = gms;
     n["continuous"] = c;
+    if (!r.known_terms.empty()) {
+      // The model check's effects: sinusoid / narrowband are known terms of the GMWM fit and its closed loop, but
+      // not part of the bias model (Phi, Qd, measurement_variance) below; the others are in no part of it.
+      YAML::Node kn(YAML::NodeType::Sequence);
+      for (const auto& k : r.known_terms) {
+        YAML::Node e;
+        e["type"] = k.type;
+        e["in_gmwm_fit"] = k.in_gmwm_fit;
+        e["in_state_space_model"] = k.in_state_space_model;
+        if (k.in_gmwm_fit) {
+          e["kind"] = k.kind;
+          if (k.frequency_hz > 0) e["frequency_hz"] = num(k.frequency_hz);
+          if (k.bandwidth_hz > 0) e["bandwidth_hz"] = num(k.bandwidth_hz);
+          if (k.amplitude > 0) e["amplitude"] = valueSd(k.amplitude, k.amplitude_sigma, "rad/s");
+          e["rms"] = valueSd(k.rms, k.rms_sigma, "rad/s");
+        }
+        e["note"] = k.note;
+        kn.push_back(e);
+      }
+      n["known_terms"] = kn;
+    }
     YAML::Node disc(YAML::NodeType::Sequence);
     for (const auto& d : r.discrete) disc.push_back(discreteNode(d));
     n["discrete"] = disc;
@@ -202,6 +223,13 @@ std::string gmwmSummary(const std::vector<AxisAnalysis>& axes) {
       out += buf;
     }
     out += "\n";
+    for (const auto& k : f.known) {  // the model check's spectral effects: in the fit, not in Phi/Qd
+      std::snprintf(buf, sizeof buf,
+                    "  known term %s at %.4g Hz, RMS %.4g deg/h: in the GMWM fit, not in the filter model (Phi/Qd)\n",
+                    k.type.c_str(), k.parameters.count("frequency_hz") ? k.parameters.at("frequency_hz") : 0.0,
+                    std::sqrt(k.c / 2) * 180 / M_PI * 3600);
+      out += buf;
+    }
     if (g.compared) {
       std::snprintf(buf, sizeof buf,
                     "  closed loop (tau %.3g..%.3g s): ADEV inside the data's CI at %d/%d points, worst ratio %.3f, "

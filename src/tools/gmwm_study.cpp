@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "gyro_allan/allan.hpp"
+#include "gyro_allan/analysis.hpp"
 #include "gyro_allan/csv_input.hpp"
 #include "gyro_allan/gmwm.hpp"
 #include "gyro_allan/noise_model.hpp"
@@ -89,7 +90,9 @@ InCi countInCi(const DeviationCurve& c68, const DeviationCurve& c95, const GmwmF
   return r;
 }
 
-int runAdis(const std::string& dir, bool verbose, int sims) {
+// known: the GMWM with the model check's sinusoid / narrowband effects as known terms (analyzeAxis, as analyze_bag
+// runs it); the second column is then the GMWM without them (the stage before known terms) instead of WN-only.
+int runAdis(const std::string& dir, bool verbose, int sims, bool known, const std::string& axes, bool fixed_known) {
   std::printf("in68/in95: points (of 48) where the model ADEV is inside the data's 68.3 %% / 95 %% CI; sim: the same\n"
               "for the fitted model against %d records simulated from it (mean [min, max]); WN-only: max_ma = 0.\n",
               sims);
@@ -108,6 +111,7 @@ int runAdis(const std::string& dir, bool verbose, int sims) {
       return 1;
     }
     for (int axis = 0; axis < 3; ++axis) {
+      if (axes.find("xyz"[axis]) == std::string::npos) continue;
       const std::vector<double>& rate = c.columns[static_cast<size_t>(axis)];
       DeviationOptions o;
       o.grid.kind = TauGridKind::Log;
@@ -116,10 +120,32 @@ int runAdis(const std::string& dir, bool verbose, int sims) {
       DeviationCurve curve95 = curve;
       fillConfidence(&curve95, 0.95);
       const FitResult fit = fitNoiseModel(curve);
-      GmwmAxis g = gmwmStage(rate, 0.01);
-      GmwmOptions wn_only;
-      wn_only.max_ma = 0;
-      GmwmAxis g0 = gmwmStage(rate, 0.01, wn_only);
+      GmwmAxis g, g0;
+      if (known) {
+        AnalysisOptions ao;
+        ao.gmwm = true;
+        ao.gmwm_options.refit_known = !fixed_known;
+        const AxisAnalysis a = analyzeAxis(std::string(1, "xyz"[axis]), {rate}, 0.01, ao);
+        g = a.gmwm;
+        g0 = gmwmStage(rate, 0.01);
+        std::printf("     effects:");
+        for (const auto& k : g.selection.fits.empty() ? std::vector<GmwmKnownTerm>() : g.selection.chosen().known) {
+          std::printf(" %s", k.type.c_str());
+          for (const auto& p : k.parameters) std::printf(" %s=%.4g", p.first.c_str(), p.second);
+          std::printf(" rms %.4g+-%.2g rad/s;", std::sqrt(k.c / 2), std::sqrt(k.c / 2) * k.c_sd / (2 * k.c));
+        }
+        std::printf(" (model check rms:");
+        for (size_t k = 0; k < a.check.effects.size() && k < a.check.fit_after.extra_c.size(); ++k)
+          std::printf(" %s %.4g", a.check.effects[k].type.c_str(), std::sqrt(a.check.fit_after.extra_c[k] / 2));
+        std::printf(")");
+        for (const auto& e : g.effects_not_in_model) std::printf(" [%s]", e.c_str());
+        std::printf("\n");
+      } else {
+        g = gmwmStage(rate, 0.01);
+        GmwmOptions wn_only;
+        wn_only.max_ma = 0;
+        g0 = gmwmStage(rate, 0.01, wn_only);
+      }
       if (!g.ok || !g0.ok) {
         std::printf("%-3d %-2c GMWM failed: %s\n", run, "xyz"[axis], (g.ok ? g0 : g).message.c_str());
         continue;
@@ -154,6 +180,8 @@ int runAdis(const std::string& dir, bool verbose, int sims) {
                   g.gmwm_vs_data.rms_log10, g0.selection.chosen().model.name().c_str(), d0.in68,
                   g0.gmwm_vs_data.worst_ratio, g0.gmwm_vs_data.rms_log10, g.ieee_vs_data.within_ci,
                   g.ieee_vs_data.points, g.ieee_vs_data.worst_ratio, g.ieee_vs_data.rms_log10);
+      std::printf("     chi2 %.4g/%d (%s %.4g/%d)\n", f.chi2, f.dof, known ? "no known terms" : "WN-only",
+                  g0.selection.chosen().chi2, g0.selection.chosen().dof);
       std::fflush(stdout);
       if (verbose) {
         std::printf("     N %.4g", f.N);
@@ -332,14 +360,19 @@ int main(int argc, char** argv) {
   if (argc >= 2 && std::string(argv[1]) == "adis") {
     const char* env = std::getenv("GYRO_ALLAN_SHARED_DATA");
     std::string dir = env ? std::string(env) + "/adis16405" : "../shared/data/adis16405";
-    bool verbose = false;
+    bool verbose = false, known = false, fixed_known = false;
     int sims = 8;
+    std::string axes = "xyz";
     for (int i = 2; i < argc; ++i) {
+      if (std::string(argv[i]) == "--known") known = true;
+      else if (std::string(argv[i]) == "--fixed-known") known = fixed_known = true;
+      else if (std::string(argv[i]) == "--axes" && i + 1 < argc) axes = argv[++i];
+      else
       if (std::string(argv[i]) == "--data" && i + 1 < argc) dir = argv[++i];
       else if (std::string(argv[i]) == "--sims" && i + 1 < argc) sims = std::atoi(argv[++i]);
       else if (std::string(argv[i]) == "--verbose") verbose = true;
     }
-    return runAdis(dir, verbose, std::max(0, sims));
+    return runAdis(dir, verbose, std::max(0, sims), known, axes, fixed_known);
   }
   if (argc >= 2 && std::string(argv[1]) == "mle") {
     uint64_t first = 1001;
@@ -372,7 +405,8 @@ int main(int argc, char** argv) {
     else if (a == "--validation") first = 1001;
     else {
       std::fprintf(stderr,
-                   "usage: gmwm_study adis [--data DIR] [--sims R (8)] [--verbose]   (measured cases: ADIS16405 runs)\n"
+                   "usage: gmwm_study adis [--data DIR] [--sims R (8)] [--verbose] [--known | --fixed-known] [--axes xyz]\n"
+                   "                  (measured cases: ADIS16405 runs; --known: with the model check's known terms)\n"
                    "       gmwm_study mle [--seeds N (50)] [--first-seed S (1001)]   (S5: exact MLE vs GMWM, CRLB)\n"
                    "       gmwm_study [--seeds N (20)] [--tuning (seeds 1..N, default) | --validation (1001..)]\n"
                    "                  [--first-seed S] [--penalty P] [--no-select] [--verbose]\n"
