@@ -128,6 +128,15 @@ int expectSameAsYaml(const gyro_allan::NoiseModel& m, const YAML::Node& yaml) {
       expectValueSigma(a.continuous.gauss_markov[k].correlation_time, gm[k]["correlation_time"], "gm tc");
     }
     gm_terms += static_cast<int>(a.continuous.gauss_markov.size());
+    const YAML::Node kn = y["known_terms"];  // the model check's effects: only when it found some
+    EXPECT_EQ(a.known_terms.size(), kn ? kn.size() : 0u);
+    for (size_t k = 0; kn && k < a.known_terms.size() && k < kn.size(); ++k) {
+      EXPECT_EQ(a.known_terms[k].type, kn[k]["type"].as<std::string>());
+      EXPECT_EQ(a.known_terms[k].in_gmwm_fit, kn[k]["in_gmwm_fit"].as<bool>());
+      EXPECT_EQ(a.known_terms[k].note, kn[k]["note"].as<std::string>());
+      if (kn[k]["rms"]) expectValueSigma(a.known_terms[k].rms, kn[k]["rms"], "known term rms");
+      if (kn[k]["frequency_hz"]) expectNear(a.known_terms[k].frequency_hz, kn[k]["frequency_hz"], "known term frequency");
+    }
     const YAML::Node disc = y["discrete"];
     EXPECT_EQ(a.discrete.size(), 2u);  // data rate and filter rate
     EXPECT_EQ(a.discrete.size(), disc.size());

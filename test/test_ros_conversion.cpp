@@ -81,6 +81,20 @@ ReportedNoiseModel handBuilt() {
   r.wavelet_variance_points = 14;
   r.wavelet_variance_within_ci = 13;
   r.wavelet_variance_confidence = 0.95;
+  gyro_allan::ReportedKnownTerm line;  // a model-check line in the fit, and an effect that is not
+  line.type = "narrowband";
+  line.in_gmwm_fit = true;
+  line.kind = "stationary narrowband oscillation";
+  line.frequency_hz = 20.0;
+  line.bandwidth_hz = 0.5;
+  line.rms = 2e-3;
+  line.rms_sigma = 1e-5;
+  line.note = "notch it";
+  gyro_allan::ReportedKnownTerm step;
+  step.type = "bias_step";
+  step.frequency_hz = 7.0;  // not copied: only a term in the fit carries the rest (as noise_model.yaml)
+  step.note = "not stationary";
+  r.known_terms = {line, step};
   return r;
 }
 
@@ -163,6 +177,20 @@ TEST(RosConversion, AxisNoiseModelFieldByField) {
   EXPECT_EQ(m.closed_loop.wavelet_variance_points, 14);
   EXPECT_EQ(m.closed_loop.wavelet_variance_within_ci, 13);
   EXPECT_EQ(m.closed_loop.wavelet_variance_confidence, 0.95);
+  ASSERT_EQ(m.known_terms.size(), 2u);
+  EXPECT_EQ(m.known_terms[0].type, "narrowband");
+  EXPECT_TRUE(m.known_terms[0].in_gmwm_fit);
+  EXPECT_FALSE(m.known_terms[0].in_state_space_model);
+  EXPECT_EQ(m.known_terms[0].frequency_hz, 20.0);
+  EXPECT_EQ(m.known_terms[0].bandwidth_hz, 0.5);
+  EXPECT_EQ(m.known_terms[0].rms.value, 2e-3);
+  EXPECT_EQ(m.known_terms[0].rms.sigma, 1e-5);
+  EXPECT_EQ(m.known_terms[0].amplitude.value, 0.0);
+  EXPECT_EQ(m.known_terms[0].note, "notch it");
+  EXPECT_EQ(m.known_terms[1].type, "bias_step");
+  EXPECT_FALSE(m.known_terms[1].in_gmwm_fit);
+  EXPECT_EQ(m.known_terms[1].frequency_hz, 0.0);
+  EXPECT_EQ(m.known_terms[1].note, "not stationary");
 }
 
 TEST(RosConversion, FailedAxisCarriesOnlyItsReason) {

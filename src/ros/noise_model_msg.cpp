@@ -52,6 +52,21 @@ AxisNoiseModel toAxisNoiseModel(const std::string& axis, const ReportedNoiseMode
     cm.unidentified = c.unidentified;
     m.candidates.push_back(cm);
   }
+  for (const ReportedKnownTerm& k : r.known_terms) {
+    KnownTerm km;
+    km.type = k.type;
+    km.in_gmwm_fit = k.in_gmwm_fit;
+    km.in_state_space_model = k.in_state_space_model;
+    if (k.in_gmwm_fit) {  // as noise_model.yaml: the rest only for a term in the fit
+      km.kind = k.kind;
+      km.frequency_hz = k.frequency_hz;
+      km.bandwidth_hz = k.bandwidth_hz;
+      km.amplitude = valueSigma(k.amplitude, k.amplitude_sigma);
+      km.rms = valueSigma(k.rms, k.rms_sigma);
+    }
+    km.note = k.note;
+    m.known_terms.push_back(km);
+  }
   m.chi2 = f.chi2;
   m.dof = f.dof;
   m.chi2_p = f.chi2_p;
