@@ -17,6 +17,25 @@ const std::string kTools = GYRO_ALLAN_TOOL_DIR;
 const std::string kOut = std::string(GYRO_ALLAN_TEST_OUT) + "/cli_gmwm";
 gyro_allan_test::ToolRun run(const std::string& args) { return gyro_allan_test::runTool(args, kOut); }
 
+// n samples at 100 Hz (seed): x white (N) + one GM (sigma, tc) + extra_x(k); y and z white (N). Written as a
+// wx,wy,wz CSV. False if the file cannot be written.
+template <class Extra>
+bool writeGmCsv(const std::string& path, double N, double sigma, double tc, int64_t n, uint64_t seed, Extra extra_x) {
+  gyro_allan::AxisNoise x, w;
+  x.angle_random_walk = N;
+  x.gm_sigma = sigma;
+  x.gm_tau = tc;
+  w.angle_random_walk = N;
+  const auto gx = gyro_allan::simulateAxis(x, 100, n, seed, 0), gy = gyro_allan::simulateAxis(w, 100, n, seed, 1),
+             gz = gyro_allan::simulateAxis(w, 100, n, seed, 2);
+  FILE* f = std::fopen(path.c_str(), "w");
+  if (!f) return false;
+  std::fprintf(f, "wx,wy,wz\n");
+  for (int64_t k = 0; k < n; ++k) std::fprintf(f, "%.9g,%.9g,%.9g\n", gx[k] + extra_x(k), gy[k], gz[k]);
+  std::fclose(f);
+  return true;
+}
+
 }  // namespace
 
 // 1 h at 100 Hz of N = 3e-4 rad/sqrt(s) and one GM (sigma 1e-3 rad/s, tc 2 s) on x; y and z white only. Declared
@@ -26,19 +45,7 @@ TEST(CliGmwm, NoiseModelYamlFromDeclaredNoise) {
   setenv("GYRO_ALLAN_NO_PLOT", "1", 1);
   ASSERT_EQ(std::system(("mkdir -p " + kOut).c_str()), 0);
   const double N = 3e-4, sigma = 1e-3, tc = 2.0;
-  gyro_allan::AxisNoise x, w;
-  x.angle_random_walk = N;
-  x.gm_sigma = sigma;
-  x.gm_tau = tc;
-  w.angle_random_walk = N;
-  const int64_t n = 360000;
-  const auto gx = gyro_allan::simulateAxis(x, 100, n, 41, 0), gy = gyro_allan::simulateAxis(w, 100, n, 41, 1),
-             gz = gyro_allan::simulateAxis(w, 100, n, 41, 2);
-  FILE* f = std::fopen((kOut + "/gm.csv").c_str(), "w");
-  ASSERT_NE(f, nullptr);
-  std::fprintf(f, "wx,wy,wz\n");
-  for (int64_t k = 0; k < n; ++k) std::fprintf(f, "%.9g,%.9g,%.9g\n", gx[k], gy[k], gz[k]);
-  std::fclose(f);
+  ASSERT_TRUE(writeGmCsv(kOut + "/gm.csv", N, sigma, tc, 360000, 41, [](int64_t) { return 0.0; }));
   // --filter-rate alone implies --method gmwm (nodelet_noise_model runs --method gmwm --filter-rate 20); report.yaml
   // names the method gmwm either way, as the nodelet's ~save does.
   const auto r = run(kTools + "/analyze_bag --csv " + kOut + "/gm.csv --rate 100 --filter-rate 50 " +
@@ -85,21 +92,9 @@ TEST(CliGmwm, SinusoidOfTheModelCheckIsAKnownTerm) {
   setenv("GYRO_ALLAN_NO_PLOT", "1", 1);
   ASSERT_EQ(std::system(("mkdir -p " + kOut).c_str()), 0);
   const double N = 3e-4, sigma = 1e-3, tc = 2.0, A = 2e-3, f0 = 7.3;
-  gyro_allan::AxisNoise x, w;
-  x.angle_random_walk = N;
-  x.gm_sigma = sigma;
-  x.gm_tau = tc;
-  w.angle_random_walk = N;
-  const int64_t n = 120000;
-  const auto gx = gyro_allan::simulateAxis(x, 100, n, 43, 0), gy = gyro_allan::simulateAxis(w, 100, n, 43, 1),
-             gz = gyro_allan::simulateAxis(w, 100, n, 43, 2);
-  FILE* f = std::fopen((kOut + "/sine.csv").c_str(), "w");
-  ASSERT_NE(f, nullptr);
-  std::fprintf(f, "wx,wy,wz\n");
-  for (int64_t k = 0; k < n; ++k)
-    std::fprintf(f, "%.9g,%.9g,%.9g\n", gx[k] + A * std::sin(2 * M_PI * f0 * 0.01 * static_cast<double>(k) + 0.4),
-                 gy[k], gz[k]);
-  std::fclose(f);
+  ASSERT_TRUE(writeGmCsv(kOut + "/sine.csv", N, sigma, tc, 120000, 43, [&](int64_t k) {
+    return A * std::sin(2 * M_PI * f0 * 0.01 * static_cast<double>(k) + 0.4);
+  }));
   const auto r = run(kTools + "/analyze_bag --csv " + kOut + "/sine.csv --rate 100 --method gmwm --no-wavelet-split " +
                      "--output " + kOut + "/sine --quiet");
   ASSERT_EQ(r.code, 0) << r.err;

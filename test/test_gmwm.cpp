@@ -27,6 +27,18 @@ std::vector<double> haar(int64_t tau) {
   return h;
 }
 
+// Sample mean and (unbiased) covariance across records of per-level wavelet variances.
+void sampleMeanCov(const std::vector<std::vector<double>>& est, size_t J, std::vector<double>* mean, Eigen::MatrixXd* S) {
+  const double reps = static_cast<double>(est.size());
+  mean->assign(J, 0.0);
+  for (const auto& e : est)
+    for (size_t j = 0; j < J; ++j) (*mean)[j] += e[j] / reps;
+  *S = Eigen::MatrixXd::Zero(J, J);
+  for (const auto& e : est)
+    for (size_t a = 0; a < J; ++a)
+      for (size_t b = 0; b < J; ++b) (*S)(a, b) += (e[a] - (*mean)[a]) * (e[b] - (*mean)[b]) / (reps - 1);
+}
+
 }  // namespace
 
 TEST(GmwmClosedForms, MatchExactSums) {
@@ -149,13 +161,9 @@ TEST(GmwmCovariance, MatchesMonteCarlo) {
   }
   const size_t J = wv0.level.size();
   const Eigen::MatrixXd C = gmwmCovariance(wv0, model, th);
-  std::vector<double> mean(J, 0.0);
-  for (const auto& e : est)
-    for (size_t j = 0; j < J; ++j) mean[j] += e[j] / reps;
-  Eigen::MatrixXd S = Eigen::MatrixXd::Zero(J, J);
-  for (const auto& e : est)
-    for (size_t a = 0; a < J; ++a)
-      for (size_t b = 0; b < J; ++b) S(a, b) += (e[a] - mean[a]) * (e[b] - mean[b]) / (reps - 1);
+  std::vector<double> mean;
+  Eigen::MatrixXd S;
+  sampleMeanCov(est, J, &mean, &S);
   const std::vector<double> model_wv = gmwmModelWv(wv0, model, th);
   for (size_t j = 0; j < J; ++j) {
     EXPECT_NEAR(mean[j] / model_wv[j], 1.0, 3 * std::sqrt(S(j, j) / reps) / model_wv[j] + 0.01) << "level " << j + 1;
@@ -297,13 +305,9 @@ TEST(GmwmCovariance, MovingAverageMatchesMonteCarlo) {
   }
   const size_t J = wv0.level.size();
   const Eigen::MatrixXd C = gmwmCovariance(wv0, model, th);
-  std::vector<double> mean(J, 0.0);
-  for (const auto& e : est)
-    for (size_t j = 0; j < J; ++j) mean[j] += e[j] / reps;
-  Eigen::MatrixXd S = Eigen::MatrixXd::Zero(J, J);
-  for (const auto& e : est)
-    for (size_t a = 0; a < J; ++a)
-      for (size_t b = 0; b < J; ++b) S(a, b) += (e[a] - mean[a]) * (e[b] - mean[b]) / (reps - 1);
+  std::vector<double> mean;
+  Eigen::MatrixXd S;
+  sampleMeanCov(est, J, &mean, &S);
   const std::vector<double> model_wv = gmwmModelWv(wv0, model, th);
   for (size_t j = 0; j < J; ++j) {
     EXPECT_NEAR(mean[j] / model_wv[j], 1.0, 3 * std::sqrt(S(j, j) / reps) / model_wv[j] + 0.01) << "level " << j + 1;
@@ -477,13 +481,9 @@ TEST(GmwmKnownTerms, CovarianceWithALineMatchesMonteCarlo) {
   }
   const size_t J = wv0.level.size();
   const Eigen::MatrixXd C_noise = gmwmCovariance(wv0, model, th);
-  std::vector<double> mean(J, 0.0);
-  for (const auto& e : est)
-    for (size_t j = 0; j < J; ++j) mean[j] += e[j] / reps;
-  Eigen::MatrixXd S = Eigen::MatrixXd::Zero(J, J);
-  for (const auto& e : est)
-    for (size_t a = 0; a < J; ++a)
-      for (size_t b = 0; b < J; ++b) S(a, b) += (e[a] - mean[a]) * (e[b] - mean[b]) / (reps - 1);
+  std::vector<double> mean;
+  Eigen::MatrixXd S;
+  sampleMeanCov(est, J, &mean, &S);
   const std::vector<double> kw = knownTermsWv(wv0, known);
   const std::vector<double> nw = gmwmModelWv(wv0, model, th);
   const Eigen::MatrixXd Ck = gmwmKnownCovariance(wv0, model, th, known);
