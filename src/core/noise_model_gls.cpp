@@ -367,17 +367,20 @@ struct GlsFit {
       // that covariance holds the full model's value of this very term, which rises and falls with x: a low x came
       // with a low threshold and a high one with a high threshold (seeds 1-40, the wavelet split's B: (T - truth) / sd
       // from -0.3 for the lowest x to +2.3 for the highest). Conditioning on the observed threshold then treats a
-      // record's own scatter as part of the event. The event is fixed where the term would enter: x = sqrt(penalty)
-      // sd(x), the fixed point of the variance model (dropped B's 68 % coverage 0.82 -> 0.72, seeds 1-20).
-      // Not when extra terms (model-check effects) are in the fit: their own scatter is not in the covariance, and a
-      // term that trades with them gets a variance so steep in its value that the fixed point runs off (K beside a
-      // Tc = 10 s Gauss-Markov term: T* 40x the observed threshold, and the 68 % bound 7e-8 against a declared 2e-7,
-      // test_model_check GaussMarkovFound). There the observed threshold stays.
-      if (extras.empty()) {
+      // record's own scatter as part of the event. For B the event is fixed where the term would enter: x =
+      // sqrt(penalty) sd(x), the fixed point of the variance model (the split's dropped B at 68 %: 0.81 -> 0.69 on
+      // seeds 1-20, 0.85 -> 0.71 on 2001-2020).
+      // Only for B. K's variance is steep in K (penalty * v2 ~ 0.45, 30 min records), its fixed point lay a median 7x
+      // beyond the observed threshold and at infinity in a quarter of the records, and conditioning on it made the
+      // consumer class's K under-cover (0.35-0.70 of 20 per seed set against 0.60-0.75) and the 30 min issue class's
+      // over-cover (0.93 of 100); R moved within its binomial spread. Nor with extra (model-check) terms in the fit:
+      // their scatter is not in the covariance (beside a Tc = 10 s Gauss-Markov term K's fixed point was 40x the
+      // observed threshold; test_model_check GaussMarkovFound). docs/calibration.md, "Sessions 9-10".
+      if (t == kBiasInstability && extras.empty()) {
         const double pen = penalty(col);
         const double a = 1.0 - pen * vm.v2, b = -pen * vm.v1, c0 = -pen * vm.v0;
         ti.event.threshold = a > 0 ? (-b + std::sqrt(std::max(0.0, b * b - 4.0 * a * c0))) / (2.0 * a)
-                                   : std::numeric_limits<double>::infinity();  // relative sd >= 1/sqrt(penalty): never enters
+                                   : std::numeric_limits<double>::infinity();  // relative sd >= 1/sqrt(penalty)
       }
       // The variance grows with the hypothesised value up to the threshold and is held there. Grown without limit
       // (like a rate random walk's long-tau scatter), "it came out below the threshold" stays likely for any large
