@@ -91,6 +91,33 @@ TEST(Selective, VarianceModelThroughThreePoints) {
   EXPECT_GT(f.at(10.0), 0.0);
 }
 
+TEST(Selective, EntryThresholdIsTheFixedPoint) {
+  // Constant variance: sqrt(penalty) sd. Growing variance: x^2 = penalty var(x), the larger root; the cap on mu does
+  // not enter. Relative sd at large mu >= 1 / sqrt(penalty): the term never enters.
+  VarianceModel flat;
+  flat.v0 = 4.0;
+  EXPECT_NEAR(flat.entryThreshold(4.0), 4.0, 1e-12);
+  VarianceModel grow;
+  grow.v0 = 1.0;
+  grow.v1 = 0.5;
+  grow.v2 = 0.05;
+  grow.cap_mu = 0.1;
+  const double t = grow.entryThreshold(4.0);
+  EXPECT_NEAR(t * t, 4.0 * (1.0 + 0.5 * t + 0.05 * t * t), 1e-9 * t * t);
+  EXPECT_GT(t, 2.0);  // above sqrt(penalty) sd(0)
+  VarianceModel down;  // a variance dipping at small mu still gives the positive root
+  down.v0 = 1.0;
+  down.v1 = -0.5;
+  down.v2 = 0.1;
+  const double u = down.entryThreshold(4.0);
+  EXPECT_GT(u, 0.0);
+  EXPECT_NEAR(u * u, 4.0 * (1.0 - 0.5 * u + 0.1 * u * u), 1e-9 * u * u);
+  VarianceModel steep;
+  steep.v0 = 1.0;
+  steep.v2 = 0.25;
+  EXPECT_TRUE(std::isinf(steep.entryThreshold(4.0)));
+}
+
 // Conditional coverage among selected draws and median-unbiasedness, for a term near the detection limit (truth 1.5
 // sd: selected ~31 % of the time, and its plain value then biased up by ~+70 %) and a strong one (truth 5 sd).
 TEST(Selective, SelectedDrawsAreCoveredAndMedianUnbiased) {

@@ -12,6 +12,10 @@ struct VarianceModel {
   double v0 = 0, v1 = 0, v2 = 0;
   double cap_mu = std::numeric_limits<double>::infinity();  ///< beyond this mu the variance is held at its value there
   double at(double mu) const;
+  /// Where a term with this scatter enters a selection that keeps it when x^2 > penalty * var(x): the fixed point
+  /// x = sqrt(penalty * (v0 + v1 x + v2 x^2)) (cap_mu ignored), +inf when penalty * v2 >= 1 (the relative sd never
+  /// falls below 1 / sqrt(penalty), so the term never enters).
+  double entryThreshold(double penalty) const;
   /// Through three (mu, variance) points (distinct mu); negative curvature or a non-positive minimum on [0, inf)
   /// falls back to the straight line through the outer points, then to the largest variance.
   static VarianceModel through(const double mu[3], const double var[3]);

@@ -376,12 +376,7 @@ struct GlsFit {
       // over-cover (0.93 of 100); R moved within its binomial spread. Nor with extra (model-check) terms in the fit:
       // their scatter is not in the covariance (beside a Tc = 10 s Gauss-Markov term K's fixed point was 40x the
       // observed threshold; test_model_check GaussMarkovFound). docs/calibration.md, "Sessions 9-10".
-      if (t == kBiasInstability && extras.empty()) {
-        const double pen = penalty(col);
-        const double a = 1.0 - pen * vm.v2, b = -pen * vm.v1, c0 = -pen * vm.v0;
-        ti.event.threshold = a > 0 ? (-b + std::sqrt(std::max(0.0, b * b - 4.0 * a * c0))) / (2.0 * a)
-                                   : std::numeric_limits<double>::infinity();  // relative sd >= 1/sqrt(penalty)
-      }
+      if (t == kBiasInstability && extras.empty()) ti.event.threshold = vm.entryThreshold(penalty(col));
       // The variance grows with the hypothesised value up to the threshold and is held there. Grown without limit
       // (like a rate random walk's long-tau scatter), "it came out below the threshold" stays likely for any large
       // value and the conditional bound had no finite end; held at the estimate's variance it missed a near-detection

@@ -26,6 +26,13 @@ double VarianceModel::at(double mu) const {
   return std::max(0.0, v0 + v1 * mu + v2 * mu * mu);
 }
 
+double VarianceModel::entryThreshold(double penalty) const {
+  // (1 - penalty v2) x^2 - penalty v1 x - penalty v0 = 0, the larger root (v0 > 0: it is positive).
+  const double a = 1.0 - penalty * v2, b = -penalty * v1, c = -penalty * v0;
+  if (!(a > 0)) return std::numeric_limits<double>::infinity();
+  return (-b + std::sqrt(std::max(0.0, b * b - 4.0 * a * c))) / (2.0 * a);
+}
+
 VarianceModel VarianceModel::through(const double mu[3], const double var[3]) {
   VarianceModel m;
   // Newton's divided differences.
