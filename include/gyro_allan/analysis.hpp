@@ -93,6 +93,10 @@ struct AxisAnalysis {
   FitResult pulse_fit;
 };
 
+/// The IEEE fit behind an analysed axis's B, K and R: the wavelet split's fit of the denoised part, pulse_times' fit,
+/// the model check's joint refit when it added effects, else the joint fit.
+const FitResult& answerFit(const AxisAnalysis& a);
+
 /// Rate samples [rad/s] of one gap-free segment of angle samples, in place: an accumulated angle theta (n points)
 /// gives the n - 1 rates (theta[k+1] - theta[k]) / tau0; increments delta (n) give the n rates delta[k] / tau0.
 /// The overlapping Allan variance (any deviation) of those rates is that of the angle (second differences of the

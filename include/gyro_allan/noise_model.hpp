@@ -3,6 +3,7 @@
 #pragma once
 
 #include <array>
+#include <limits>
 #include <functional>
 #include <string>
 #include <vector>
@@ -107,7 +108,23 @@ struct FitResult {
   /// just passed) is dropped: `dropped_by_correction`. `terms` keeps the least-squares values behind model_var.
   std::array<Coefficient, kNumTerms> terms_corrected;
   std::array<bool, kNumTerms> dropped_by_correction{{false, false, false, false, false}};
+  /// Term selection's closest non-nested rival (covariance weighting): the best-scoring subset of IEEE terms that
+  /// neither contains nor is contained in the selected one, as a bit set (1 << term; 0 = none), and how much its
+  /// score (chi-squared + penalties) exceeds the selection's.
+  int rival_terms = 0;
+  double rival_gap = std::numeric_limits<double>::infinity();
+  std::array<double, kNumTerms> rival_values{{0, 0, 0, 0, 0}};  ///< the rival's least-squares coefficients
+  /// Terms the rival tells otherwise when it scores within kRivalGap: a selected term it does without is reported
+  /// unsupported in terms_corrected (value 0, interval from 0), a term of its that the answer lacks gets at least the
+  /// rival's upper ends.
+  std::array<bool, kNumTerms> ambiguous{{false, false, false, false, false}};
 };
+
+/// A non-nested rival set of terms scoring within this of the selection (chi-squared + penalties) makes the terms the
+/// two disagree on ambiguous (FitResult::ambiguous). 2 is the information-criterion convention for a rival with
+/// substantial support (Burnham & Anderson 2002, Delta <= 2); chosen by that convention, not tuned
+/// (docs/calibration.md, "Session 12").
+constexpr double kRivalGap = 2.0;
 
 /// Fits the model to `curve` (AVAR in curve.points[i].var; weights from points[i].edf; edf <= 0 is treated as
 /// the non-overlapping count N/m - 1). Iterated: the variance of each AVAR estimate is 2 model^2 / edf.

@@ -435,11 +435,36 @@ AxisAnalysis AxisStages::finish() {
                   pulse_n.value, 100 * pulse_n.sigma / pulse_n.value, 100 * kPulseTimesMaxRelSigma);
     a.notes.push_back(buf);
   }
+  {
+    // Terms a close rival set of terms tells otherwise (noise_model.hpp FitResult::ambiguous): say which and why.
+    const FitResult& f = answerFit(a);
+    std::string amb, rival;
+    for (int t = 0; t < kNumTerms; ++t) {
+      if (f.ambiguous[static_cast<size_t>(t)]) amb += std::string(amb.empty() ? "" : ", ") + noiseTermKey(t);
+      if ((f.rival_terms >> t) & 1) rival += std::string(rival.empty() ? "" : "+") + noiseTermKey(t);
+    }
+    if (!amb.empty()) {
+      char buf[400];
+      std::snprintf(buf, sizeof buf,
+                    "ambiguous terms (%s): the terms %s tell the record within %.3g of the selection in chi-squared + "
+                    "penalties (< %g); a selected term they do without is reported as an upper bound, and the "
+                    "intervals of theirs reach their values",
+                    amb.c_str(), rival.c_str(), f.rival_gap, kRivalGap);
+      a.notes.push_back(buf);
+    }
+  }
   if (a.has_gmwm) gmwmCompare(&a.gmwm, a.oadev, a.fit.model_var, a.final_model_var);  // closed loop vs IEEE fits
   a.quality = assessQuality(a);
   if (unboundIntervalsIfBad(a.quality, &a.coefficients))
     a.notes.push_back("intervals unbounded: the fit is bad, no interval computed under its model can be trusted");
   return std::move(a_);
+}
+
+const FitResult& answerFit(const AxisAnalysis& a) {
+  if (a.method == "wavelet_split") return a.split.denoised_fit;
+  if (a.method == "pulse_times") return a.pulse_fit;
+  if (a.has_check && !a.check.effects.empty()) return a.check.fit_after;
+  return a.fit;
 }
 
 AxisAnalysis analyzeAxis(const std::string& axis, const std::vector<std::vector<double>>& segments, double tau0,

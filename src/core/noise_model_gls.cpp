@@ -199,6 +199,7 @@ struct GlsFit {
   Eigen::VectorXd c;                         // coefficient weights (AVAR units), per column
   Eigen::VectorXd c_full;                    // ... of the full model (before term selection)
   Eigen::MatrixXd cov_full;                  // the full model's covariance of the estimates
+  Eigen::VectorXd rival_c;                   // the closest non-nested rival's weights (selectTerms)
   std::vector<int> pos;                      // the selected columns
   struct TermInference {
     bool corrected_out = false;
@@ -273,6 +274,8 @@ struct GlsFit {
     double best_score = std::numeric_limits<double>::infinity();
     Eigen::VectorXd best_c = c;
     const int ne = static_cast<int>(ieee_cols.size());
+    std::vector<std::pair<int, double>> scored;  // (IEEE terms with a positive weight, as 1 << term; score)
+    std::vector<Eigen::VectorXd> fits;           // their weights
     for (int mask = 0; mask < (1 << ne); ++mask) {
       std::vector<int> cols = extras;
       for (int b = 0; b < ne; ++b)
@@ -280,14 +283,66 @@ struct GlsFit {
       if (cols.empty()) continue;
       Eigen::VectorXd cs;
       double score = solveNnls(w, cols, &cs);
+      fits.push_back(cs);
+      int terms = 0;
       for (int col : ieee_cols)
-        if (cs[col] > 0) score += penalty(col);
+        if (cs[col] > 0) score += penalty(col), terms |= 1 << P.term[static_cast<size_t>(col)];
+      scored.push_back({terms, score});
       if (score < best_score - 1e-9) {
         best_score = score;
         best_c = cs;
       }
     }
     c = best_c;
+    // The closest rival that tells the record with other terms: neither a subset nor a superset of the selection
+    // (nested alternatives are what each term's selective interval accounts for).
+    int sel = 0;
+    for (int col : ieee_cols)
+      if (c[col] > 0) sel |= 1 << P.term[static_cast<size_t>(col)];
+    for (size_t i = 0; i < scored.size(); ++i) {
+      const auto& [terms, score] = scored[i];
+      if ((terms & sel) == terms || (terms & sel) == sel) continue;
+      if (score - best_score < r.rival_gap) r.rival_gap = score - best_score, r.rival_terms = terms, rival_c = fits[i];
+    }
+  }
+
+  // Terms the closest rival tells otherwise, when it scores within kRivalGap of the selection (FitResult::ambiguous):
+  // a selected term the rival does without is not supported (its value 0, its interval from 0 to its upper end), and
+  // a rival's term the answer lacks gets at least the rival's plain upper ends (its free least-squares value + 1 and
+  // 1.96 sd at the full model's covariance). The selective intervals (inferAll) condition on which terms were kept,
+  // not on which non-nested set of terms won: where a rate random walk told the record about as well as bias
+  // instability plus a ramp, K was reported at 3-10x its truth with an interval that excluded it.
+  void ambiguity(const Whitened& w) {
+    for (int col : ieee_cols)
+      if (rival_c.size() == ncol && rival_c[col] > 0)
+        r.rival_values[static_cast<size_t>(P.term[static_cast<size_t>(col)])] = std::sqrt(rival_c[col]);
+    if (!(r.rival_gap < kRivalGap)) return;
+    std::vector<int> rcols;
+    for (int col = 0; col < ncol; ++col)
+      if (rival_c.size() == ncol && rival_c[col] > 0) rcols.push_back(col);
+    Eigen::VectorXd est;
+    Eigen::MatrixXd cov;
+    if (!rcols.empty()) solveFree(w, rcols, &est, &cov);
+    for (int col : ieee_cols) {
+      const int t = P.term[static_cast<size_t>(col)];
+      Coefficient& cc = r.terms_corrected[static_cast<size_t>(t)];
+      const bool in_rival = (r.rival_terms >> t) & 1;
+      if (cc.supported && !in_rival) {
+        cc.supported = false;
+        cc.value = 0.0;
+        cc.lo68 = cc.lo95 = 0.0;
+        cc.sigma = cc.hi68;
+        r.ambiguous[static_cast<size_t>(t)] = true;
+      } else if (!cc.supported && in_rival && !rcols.empty()) {
+        const auto k = static_cast<int>(std::find(rcols.begin(), rcols.end(), col) - rcols.begin());
+        if (k >= static_cast<int>(rcols.size())) continue;
+        const double x = std::max(0.0, est[k]), sd = std::sqrt(std::max(0.0, cov(k, k) * r.uncertainty_inflation));
+        cc.hi68 = std::max(cc.hi68, std::sqrt(x + sd));
+        cc.hi95 = std::max(cc.hi95, std::sqrt(x + 1.96 * sd));
+        cc.sigma = cc.hi68;
+        r.ambiguous[static_cast<size_t>(t)] = true;
+      }
+    }
   }
 
   // Final statistics at the same covariance, and the evidence: the chi-squared change when each IEEE term leaves or
@@ -524,6 +579,7 @@ FitResult fitNoiseModelGls(const DeviationCurve& curve, const FitOptions& option
   g.statistics(w);
   g.inferAll(w);
   g.coefficients();
+  g.ambiguity(w);
   g.modelCurve();
   g.r.ok = true;
   return g.r;

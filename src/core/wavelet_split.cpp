@@ -560,7 +560,10 @@ void reportCoefficients(const WaveletSplitOptions& options, const QnEstimate& e,
     r->terms[kAngleRandomWalk] = r->denoised_fit.terms[kAngleRandomWalk];
   }
   for (int t = kBiasInstability; t < kNumTerms; ++t) {
-    if (options.enabled[static_cast<size_t>(t)] && r->denoised_fit.ok) r->terms[static_cast<size_t>(t)] = r->denoised_fit.terms[static_cast<size_t>(t)];
+    const size_t i = static_cast<size_t>(t);
+    // A term a close rival set of terms tells otherwise is reported as the fit's answer has it (FitResult::ambiguous).
+    const FitResult& f = r->denoised_fit;
+    if (options.enabled[i] && f.ok) r->terms[i] = f.ambiguous[i] ? f.terms_corrected[i] : f.terms[i];
   }
   if (!options.enabled[kAngleRandomWalk]) r->terms[kAngleRandomWalk] = Coefficient{};
   if (!options.enabled[kQuantization]) r->terms[kQuantization] = Coefficient{};

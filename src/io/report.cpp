@@ -176,6 +176,18 @@ YAML::Node fitNode(const FitResult& fit) {
     for (int t = 0; t < kNumTerms; ++t)
       if (fit.dropped_by_correction[static_cast<size_t>(t)]) dropped.push_back(str(noiseTermKey(t)));
     n["dropped_by_selection_correction"] = dropped;
+    // The closest non-nested rival set of terms and its score gap; within kRivalGap its disagreeing terms are
+    // ambiguous (noise_model.hpp FitResult::ambiguous).
+    YAML::Node rival(YAML::NodeType::Sequence), amb(YAML::NodeType::Sequence);
+    for (int t = 0; t < kNumTerms; ++t) {
+      if ((fit.rival_terms >> t) & 1) rival.push_back(str(noiseTermKey(t)));
+      if (fit.ambiguous[static_cast<size_t>(t)]) amb.push_back(str(noiseTermKey(t)));
+    }
+    n["rival_terms"] = rival;
+    for (int t = 0; t < kNumTerms; ++t)
+      if ((fit.rival_terms >> t) & 1) n["rival_values"][noiseTermKey(t)] = num(fit.rival_values[static_cast<size_t>(t)]);
+    n["rival_score_gap"] = num(fit.rival_gap);
+    n["ambiguous_terms"] = amb;
   } else {
     n["weighting"] = str("edf");
   }
