@@ -5,6 +5,12 @@
 //   coverage_study [--seeds A-B] [--classes a,b,...] [--duration S | --durations S1,S2,...] [--rate HZ]
 //                  [--max-samples N] [--threads N] [--csv FILE] [--method auto|joint_fit|wavelet_split]
 //                  [--tau-grid G] [--no-model-check] [--no-wavelet-split] [--list]
+//                  [--define NAME:key=value,...]...
+//
+// --define adds a class of your own (a held-out class: nothing was tuned on it), in the units of the table below:
+//   --define ramp_strong:rate=200,hours=1,n=0.1,b=0.8,k=0.5,r=40      keys rate (Hz), hours, q (arcsec), n, b, k,
+//   r, in (deg/h input rate), dither (1 or 0; default 1). Unset terms are 0. Repeatable. With --define only the
+//   defined classes run unless --classes names others too.
 //
 // Seeds 1-999 are the tuning set (1-30 by convention), 1001- the validation set (1001-1030); the output says which.
 // Default: seeds 1-20, every class at its default duration and rate.
@@ -155,6 +161,9 @@ struct Run {
   std::string method;
   std::string quality;  // the axis's verdict (good | doubtful | bad); a bad axis's intervals are [0, inf)
   double rms_log10 = 0, chi2_dof = 0;
+  std::string rival;  // the term selection's closest non-nested rival (FitResult::rival_terms), e.g. "NB"
+  double rival_gap = 0;
+  std::array<double, kNumTerms> evidence{};  // FitResult::evidence of the same fit
   std::array<Coefficient, kNumTerms> c;
 };
 
@@ -251,6 +260,42 @@ std::vector<std::string> splitList(const std::string& s) {
   return out;
 }
 
+double parseNonNegative(const std::string& s, const std::string& what) {
+  char* end = nullptr;
+  const double v = std::strtod(s.c_str(), &end);
+  if (s.empty() || *end != '\0' || !(v >= 0) || !std::isfinite(v))
+    throw std::invalid_argument(what + ": not a non-negative number: '" + s + "'");
+  return v;
+}
+
+/// A class from "--define NAME:key=value,..." (conventional units, as in the table at the top of this file).
+Class defineClass(const std::string& spec) {
+  const size_t colon = spec.find(':');
+  const std::string name = spec.substr(0, colon);
+  if (name.empty() || colon == std::string::npos)
+    throw std::invalid_argument("--define: NAME:key=value,... expected, got '" + spec + "'");
+  Class c = make(name.c_str(), 100, 1, 0, 0, 0, 0);
+  bool rate = false, hours = false;
+  for (const auto& kv : splitList(spec.substr(colon + 1))) {
+    const size_t eq = kv.find('=');
+    const std::string key = kv.substr(0, eq), val = eq == std::string::npos ? "" : kv.substr(eq + 1);
+    const double v = parseNonNegative(val, "--define " + name + " " + key);
+    if (key == "rate") c.rate_hz = v, rate = v > 0;
+    else if (key == "hours") c.duration_s = v * 3600.0, hours = v > 0;
+    else if (key == "q") c.a.quantization = v * kArcsec;
+    else if (key == "n") c.a.angle_random_walk = v * kDegPerSqrtH;
+    else if (key == "b") c.a.bias_instability = v * kDegPerH;
+    else if (key == "k") c.a.rate_random_walk = v * kDegPerHSqrtH;
+    else if (key == "r") c.a.rate_ramp = v * kDegPerH2;
+    else if (key == "in") c.a.input_rate = v * kDegPerH;
+    else if (key == "dither" && (v == 0 || v == 1)) c.a.dither = v == 1;
+    else throw std::invalid_argument("--define " + name + ": unknown key or value '" + kv + "'");
+  }
+  if (!rate || !hours) throw std::invalid_argument("--define " + name + ": rate and hours must be > 0");
+  if (!(c.a.angle_random_walk > 0)) throw std::invalid_argument("--define " + name + ": n must be > 0");
+  return c;
+}
+
 double parsePositive(const std::string& s, const char* what) {
   char* end = nullptr;
   const double v = std::strtod(s.c_str(), &end);
@@ -264,7 +309,9 @@ void usage() {
                "usage: coverage_study [--seeds A-B] [--classes a,b,...] [--duration S | --durations S1,S2,...]\n"
                "                      [--rate HZ] [--max-samples N] [--threads N] [--csv FILE]\n"
                "                      [--method auto|joint_fit|wavelet_split] [--tau-grid G] [--no-model-check]\n"
-               "                      [--no-wavelet-split] [--list]\n"
+               "                      [--no-wavelet-split] [--list] [--define NAME:key=value,...]...\n"
+               "  --define: a class of your own, e.g. ramp_strong:rate=200,hours=1,n=0.1,b=0.8,k=0.5,r=40\n"
+               "  (keys rate hours q n b k r in dither; units as --list; unset terms 0; repeatable)\n"
                "  seeds 1-999: tuning set (1-30), 1001-: validation set (1001-1030). Default 1-20.\n"
                "  rate: each class's rate (--list) unless --rate; lowered to max-samples/duration when above it\n"
                "  (default max-samples 720000 = 2 h at 100 Hz, so a 4 h record runs at 50 Hz).\n");
@@ -279,6 +326,7 @@ int main(int argc, char** argv) {
     int threads = static_cast<int>(std::min(2u, std::max(1u, std::thread::hardware_concurrency())));
     bool list = false;
     AnalysisOptions opt;
+    std::vector<Class> defined;
     for (int i = 1; i < argc; ++i) {
       const std::string a = argv[i];
       auto next = [&]() -> std::string {
@@ -300,6 +348,7 @@ int main(int argc, char** argv) {
       } else if (a == "--no-model-check") opt.model_check = false;
       else if (a == "--no-wavelet-split") opt.wavelet_split = false;
       else if (a == "--list") list = true;
+      else if (a == "--define") defined.push_back(defineClass(next()));
       else if (a == "--help" || a == "-h") {
         usage();
         return 0;
@@ -313,7 +362,14 @@ int main(int argc, char** argv) {
     if (duration_override > 0 && !durations.empty())
       throw std::invalid_argument("--duration and --durations exclude each other");
 
-    const std::vector<Class> all = classes();
+    std::vector<Class> all = classes();
+    for (const auto& d : defined) {
+      if (std::any_of(all.begin(), all.end(), [&](const Class& k) { return k.name == d.name; }))
+        throw std::invalid_argument("--define: class '" + d.name + "' already exists");
+      all.push_back(d);
+      if (!only.empty()) only += ",";
+      only += d.name;
+    }
     if (list) {
       std::printf("%-14s %8s %8s %10s %10s %10s %10s %10s %6s %8s\n", "class", "rate_hz", "dur_s", "Q[arcsec]",
                   "N[d/rh]", "B[d/h]", "K[d/h/rh]", "R[d/h2]", "dither", "in[d/h]");
@@ -402,6 +458,11 @@ int main(int argc, char** argv) {
           r.quality = qualityName(a.quality.quality);
           r.rms_log10 = a.final_error.rms_log10;
           r.chi2_dof = a.final_error.chi2_dof;
+          const FitResult& f = answerFit(a);
+          for (int t = 0; t < kNumTerms; ++t)
+            if (f.rival_terms & (1 << t)) r.rival += kTermShort[t];
+          r.rival_gap = f.rival_gap;
+          r.evidence = f.evidence;
           r.ok = true;
         } catch (const std::exception& e) {
           r.error = e.what();
@@ -423,7 +484,7 @@ int main(int argc, char** argv) {
       if (!csv) throw std::runtime_error("cannot write " + csv_path);
       std::fprintf(csv,
                    "class,duration_s,rate_hz,seed,sim_seed,term,truth,value,sigma,lo68,hi68,lo95,hi95,supported,"
-                   "method,quality,rms_log10,chi2_dof,error\n");
+                   "method,quality,rms_log10,chi2_dof,rival,rival_gap,evidence,error\n");
       for (const auto& r : runs) {
         const Job& j = jobs[r.job];
         for (int t = 0; t < kNumTerms; ++t) {
@@ -431,11 +492,11 @@ int main(int argc, char** argv) {
           std::string err = r.error;
           for (auto& ch : err)
             if (ch == ',' || ch == '"' || ch == '\n') ch = ';';
-          std::fprintf(csv, "%s,%.0f,%.6g,%d,%llu,%s,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%d,%s,%s,%.6g,%.6g,%s\n",
+          std::fprintf(csv, "%s,%.0f,%.6g,%d,%llu,%s,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%d,%s,%s,%.6g,%.6g,%s,%.6g,%.6g,%s\n",
                        j.k.name.c_str(), j.duration_s, j.rate_hz, r.seed,
                        static_cast<unsigned long long>(r.sim_seed), kTermShort[t], truthOf(j.k.a, t), c.value,
                        c.sigma, c.lo68, c.hi68, c.lo95, c.hi95, c.supported ? 1 : 0, r.method.c_str(), r.quality.c_str(), r.rms_log10,
-                       r.chi2_dof, err.c_str());
+                       r.chi2_dof, r.rival.c_str(), r.rival_gap, r.evidence[static_cast<size_t>(t)], err.c_str());
         }
       }
       std::fclose(csv);
