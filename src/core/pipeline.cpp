@@ -362,10 +362,10 @@ struct PipelineRun {
         accel_error = e.what();
       }
     });
-    // After the last gyro check and every split but the last: the accelerometer then overlaps only the last split,
-    // when the other axes' samples are already freed.
+    // After every split but the last: the accelerometer then overlaps only the last gyro axis (its split and check),
+    // when the other axes' samples are already freed. (It waited for the last check too until session 12; then the
+    // three accelerometer axes ran after everything else, one of them alone on a 2-core machine.)
     std::vector<size_t> after;
-    if (sanitize_task > 1) after.push_back(sanitize_task - 2);  // the last check (the last task is its finish)
     if (split_tasks.size() > 1) after.push_back(split_tasks[split_tasks.size() - 2]);
     deps.push_back(after);
     for (size_t a = 0; a < 3; ++a) {
