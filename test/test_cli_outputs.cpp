@@ -351,3 +351,37 @@ TEST_F(Outputs, GapBetweenStitchedBagsIsInTheReport) {
 }
 
 }  // namespace
+
+// coverage_study --define: a class of the user's own (a held-out class) runs with its declared truth in SI in the CSV,
+// and a bad definition is one line naming it.
+TEST_F(Outputs, CoverageStudyRunsADefinedClass) {
+  const std::string csv = kOut + "/defined.csv";
+  const ToolRun r = run(kTools + "/coverage_study --define tiny:rate=20,hours=0.1,n=0.25,b=8,r=40 --seeds 1-2 " +
+                        "--threads 1 --csv " + csv);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("## tiny: 360 s at 20 Hz, 2 runs ok"), std::string::npos) << r.out;
+  const double deg = M_PI / 180.0;
+  int rows = 0;
+  for (const std::string& l : lines(slurp(csv))) {
+    if (l.rfind("tiny,", 0) != 0) continue;
+    ++rows;
+    std::stringstream ss(l);
+    std::vector<std::string> f;
+    std::string x;
+    while (std::getline(ss, x, ',')) f.push_back(x);
+    ASSERT_GT(f.size(), 7u) << l;
+    const double truth = std::stod(f[6]);
+    if (f[5] == "N") EXPECT_NEAR(truth, 0.25 * deg / 60.0, 1e-12);
+    if (f[5] == "B") EXPECT_NEAR(truth, 8 * deg / 3600.0, 1e-12);
+    if (f[5] == "R") EXPECT_NEAR(truth, 40 * deg / 3600.0 / 3600.0, 1e-15);
+    if (f[5] == "Q" || f[5] == "K") EXPECT_EQ(truth, 0.0);
+  }
+  EXPECT_EQ(rows, 10);  // 2 seeds x 5 terms
+  for (const std::string& bad : {"tiny:rate=0,hours=1,n=1", "tiny:rate=20,hours=1,n=1,zz=3", "tiny:rate=20,hours=1",
+                                 "consumer:rate=20,hours=1,n=1", "tiny"}) {
+    const ToolRun b = run(kTools + "/coverage_study --define " + bad + " --seeds 1");
+    EXPECT_EQ(b.code, 1) << bad;
+    EXPECT_EQ(gyro_allan_test::countLines(b.err), 1) << b.err;
+    EXPECT_NE(b.err.find("--define"), std::string::npos) << b.err;
+  }
+}
