@@ -9,6 +9,7 @@
 #include "gyro_allan/analysis.hpp"
 #include "gyro_allan/model_check.hpp"
 #include "gyro_allan/noise_model.hpp"
+#include "gyro_allan/quality.hpp"
 #include "gyro_allan/simulate.hpp"
 
 using namespace gyro_allan;
@@ -168,10 +169,12 @@ TEST(NoiseModel, RecoversRlgCoefficientsFromSimulation) {
 }
 
 // Term selection's closest non-nested rival (FitResult::rival_terms): where it scores within kRivalGap of the
-// selection, the answer claims no term the rival does without, and the rival's terms the answer lacks reach the
-// rival's values. A tactical gyro with a weak ramp (N 0.1 deg/sqrt(h), B 0.8 deg/h, K 0.5 deg/h/sqrt(h), R 6
-// deg/h^2; 1 h at 20 Hz), where N+B and N+K tell many records about equally well: seeds 7801-7830 hold both kinds
-// (9 of the 30 within the gap when written: 3 selected terms removed, 10 rival terms widened).
+// selection, the answer claims no term the rival does without, the terms both sets hold (or neither) are not
+// ambiguous, and the rival's terms the answer lacks have intervals reaching the rival's values. A tactical gyro with a
+// weak ramp (N 0.1 deg/sqrt(h), B 0.8 deg/h, K 0.5 deg/h/sqrt(h), R 6 deg/h^2; 1 h at 20 Hz), where N+B and N+K tell
+// many records about equally well: seeds 7801-7830 hold both kinds (9 of the 30 within the gap when written: 9
+// selected terms flagged, 10 rival terms checked). In these records the rival's terms already had intervals past its values,
+// so nothing was widened: that branch is a guard.
 TEST(NoiseModel, CloseRivalMakesTheTermsItDisagreesOnAmbiguous) {
   const double deg = M_PI / 180.0;
   AxisNoise a;
@@ -179,39 +182,82 @@ TEST(NoiseModel, CloseRivalMakesTheTermsItDisagreesOnAmbiguous) {
   a.bias_instability = 0.8 * deg / 3600.0;
   a.rate_random_walk = 0.5 * deg / 3600.0 / 60.0;
   a.rate_ramp = 6.0 * deg / 3600.0 / 3600.0;
-  int close = 0, far = 0, removed = 0, widened = 0;
+  int close = 0, far = 0, removed = 0, rival_checked = 0;
   for (uint64_t seed = 7801; seed <= 7830; ++seed) {
     const std::vector<double> y = simulateAxis(a, 20.0, 72000, seed, 0);
     DeviationCurve c = computeDeviation("oadev", y, InputKind::Rate, 1.0 / 20.0, DeviationOptions{});
     const FitResult f = fitWithModelEdf(&c, FitOptions{}, 0.683);
     ASSERT_TRUE(f.ok) << f.message;
     ASSERT_NE(f.rival_terms, 0) << "seed " << seed;
+    int sel = 0;  // what the subset search selected (terms: the least-squares values, before any correction)
+    for (int t = 0; t < kNumTerms; ++t)
+      if (f.terms[static_cast<size_t>(t)].supported) sel |= 1 << t;
+    EXPECT_NE(f.rival_terms & sel, f.rival_terms) << "seed " << seed << ": the rival is a subset of the selection";
+    EXPECT_NE(f.rival_terms & sel, sel) << "seed " << seed << ": the rival is a superset of the selection";
     for (int t = 0; t < kNumTerms; ++t) {
-      const bool in_rival = (f.rival_terms >> t) & 1;
-      const Coefficient& cc = f.terms_corrected[static_cast<size_t>(t)];
-      if (!(f.rival_gap < kRivalGap)) {
-        EXPECT_FALSE(f.ambiguous[static_cast<size_t>(t)]) << "seed " << seed << " " << noiseTermKey(t);
+      const size_t i = static_cast<size_t>(t);
+      const bool in_rival = (f.rival_terms >> t) & 1, selected = (sel >> t) & 1;
+      const Coefficient& cc = f.terms_corrected[i];
+      if (!(f.rival_gap < kRivalGap) || in_rival == selected) {
+        EXPECT_FALSE(f.ambiguous[i]) << "seed " << seed << " " << noiseTermKey(t);
         continue;
       }
-      EXPECT_TRUE(!cc.supported || in_rival) << "seed " << seed << ": " << noiseTermKey(t)
-                                              << " claimed though a close rival does without it";
-      if (!in_rival && f.terms[static_cast<size_t>(t)].supported && !f.dropped_by_correction[static_cast<size_t>(t)]) {
+      EXPECT_TRUE(f.ambiguous[i]) << "seed " << seed << " " << noiseTermKey(t);
+      if (selected) {
         ++removed;
-        EXPECT_TRUE(f.ambiguous[static_cast<size_t>(t)]);
-        EXPECT_EQ(cc.lo68, 0.0);
+        EXPECT_FALSE(cc.supported) << "seed " << seed << ": " << noiseTermKey(t)
+                                   << " claimed though a close rival does without it";
         EXPECT_EQ(cc.value, 0.0);
-      }
-      if (in_rival && !cc.supported && f.rival_values[static_cast<size_t>(t)] > 0) {
-        ++widened;
-        EXPECT_GE(cc.hi68, f.rival_values[static_cast<size_t>(t)] * (1 - 1e-9)) << "seed " << seed << " " << noiseTermKey(t);
+        EXPECT_EQ(cc.lo68, 0.0);
+        EXPECT_EQ(cc.lo95, 0.0);
+      } else {
+        ++rival_checked;
+        EXPECT_FALSE(cc.supported);
+        EXPECT_GE(cc.hi68, f.rival_values[i] * (1 - 1e-9)) << "seed " << seed << " " << noiseTermKey(t);
+        EXPECT_GE(cc.hi95, cc.hi68) << "seed " << seed << " " << noiseTermKey(t);
       }
     }
     (f.rival_gap < kRivalGap ? close : far) += 1;
   }
-  std::printf("rival within %g: %d of 30 records; %d selected terms removed, %d rival terms widened\n", kRivalGap,
-              close, removed, widened);
+  std::printf("rival within %g: %d of 30 records; %d selected terms removed, %d rival terms checked\n", kRivalGap,
+              close, removed, rival_checked);
   EXPECT_GT(close, 0);
   EXPECT_GT(far, 0);
   EXPECT_GT(removed, 0);
-  EXPECT_GT(widened, 0);
+  EXPECT_GT(rival_checked, 0);
+}
+
+// The same rule through the wavelet split (its B, K, R come from the denoised part's fit): a dithered MEMS-like gyro
+// with every term (Q 2 arcsec, N 0.15 deg/sqrt(h), B 2 deg/h, K 3 deg/h/sqrt(h), R 10 deg/h^2; 1 h at 200 Hz;
+// coverage_study's held-out class all5, seed 5), where N+B scores within 2 of the selected N+K. K is reported as a
+// bound, and the split's model curve keeps the fitted K: taking the reported K (0) into the curve made the raw fit
+// miss (chi2/dof ~170) and switched the verdict to the sawtooth fallback for a dithered sensor.
+TEST(NoiseModel, CloseRivalInTheWaveletSplitKeepsItsModelCurve) {
+  const double deg = M_PI / 180.0;
+  AxisNoise a;
+  a.quantization = 2.0 * deg / 3600.0;
+  a.dither = true;
+  a.angle_random_walk = 0.15 * deg / 60.0;
+  a.bias_instability = 2.0 * deg / 3600.0;
+  a.rate_random_walk = 3.0 * deg / 3600.0 / 60.0;
+  a.rate_ramp = 10.0 * deg / 3600.0 / 3600.0;
+  const std::vector<double> y = simulateAxis(a, 200.0, 720000, 13766864119334436869ULL, 0);
+  const AxisAnalysis r = analyzeAxis("x", {y}, 1.0 / 200.0, AnalysisOptions{});
+  ASSERT_EQ(r.method, "wavelet_split");
+  const FitResult& f = answerFit(r);
+  ASSERT_LT(f.rival_gap, kRivalGap);
+  const std::array<bool, kNumTerms> amb = answerAmbiguous(r);
+  EXPECT_FALSE(amb[kQuantization]);
+  EXPECT_FALSE(amb[kAngleRandomWalk]);
+  int n_amb = 0;
+  for (int t = kBiasInstability; t < kNumTerms; ++t) {
+    const size_t i = static_cast<size_t>(t);
+    n_amb += amb[i];
+    if (r.coefficients[i].supported)
+      EXPECT_TRUE((f.rival_terms >> t) & 1) << noiseTermKey(t) << " claimed though a close rival does without it";
+  }
+  EXPECT_GT(n_amb, 0);
+  for (const std::string& n : r.notes) EXPECT_EQ(n.find("non-white"), std::string::npos) << n;
+  EXPECT_LT(r.final_error.chi2_dof, quality_limits::kDoubtfulChi2Dof);
+  EXPECT_NE(r.quality.quality, Quality::Bad);
 }

@@ -96,6 +96,9 @@ struct AxisAnalysis {
 /// The IEEE fit behind an analysed axis's B, K and R: the wavelet split's fit of the denoised part, pulse_times' fit,
 /// the model check's joint refit when it added effects, else the joint fit.
 const FitResult& answerFit(const AxisAnalysis& a);
+/// The terms of the answer (`coefficients`) that answerFit's closest rival makes ambiguous (FitResult::ambiguous);
+/// for the wavelet split only B, K and R, which come from that fit (Q and N come from the split's own estimators).
+std::array<bool, kNumTerms> answerAmbiguous(const AxisAnalysis& a);
 
 /// Rate samples [rad/s] of one gap-free segment of angle samples, in place: an accumulated angle theta (n points)
 /// gives the n - 1 rates (theta[k+1] - theta[k]) / tau0; increments delta (n) give the n rates delta[k] / tau0.

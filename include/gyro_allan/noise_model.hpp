@@ -121,9 +121,10 @@ struct FitResult {
 };
 
 /// A non-nested rival set of terms scoring within this of the selection (chi-squared + penalties) makes the terms the
-/// two disagree on ambiguous (FitResult::ambiguous). 2 is the information-criterion convention for a rival with
-/// substantial support (Burnham & Anderson 2002, Delta <= 2); chosen by that convention, not tuned
-/// (docs/calibration.md, "Session 12").
+/// two disagree on ambiguous (FitResult::ambiguous). 2 is taken from the information-criterion rule of thumb for a
+/// rival with substantial support (Burnham & Anderson 2002, AIC Delta <= 2); the score here charges 4 per term (6 for
+/// the ramp) rather than AIC's 2, so the analogy is exact only between sets of equal size. Not tuned on the coverage
+/// study (docs/calibration.md, "Session 12").
 constexpr double kRivalGap = 2.0;
 
 /// Fits the model to `curve` (AVAR in curve.points[i].var; weights from points[i].edf; edf <= 0 is treated as

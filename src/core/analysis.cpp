@@ -347,10 +347,10 @@ AxisAnalysis AxisStages::finish() {
   if (method == "wavelet_split") {
     a.coefficients = a.split.terms;
     FitResult tmp;
-    tmp.terms = a.split.terms;
+    tmp.terms = a.split.model_terms;  // the curve the split fitted (an ambiguous term is a bound in `terms` only)
     for (size_t i = 0; i < a.oadev.points.size(); ++i) a.final_model_var[i] = modelVariance(tmp, a.oadev.points[i].tau);
     int n_params = 0;
-    for (const auto& c : a.split.terms) n_params += c.supported ? 1 : 0;
+    for (const auto& c : a.split.model_terms) n_params += c.supported ? 1 : 0;
     a.final_error = fitError(a.oadev, a.final_model_var, a.fit.used, n_params, options.fit.rms_min_edf);
     const FitResult& den = a.split.denoised_fit;
     auto bad = [](double rms, double chi2) {
@@ -438,9 +438,10 @@ AxisAnalysis AxisStages::finish() {
   {
     // Terms a close rival set of terms tells otherwise (noise_model.hpp FitResult::ambiguous): say which and why.
     const FitResult& f = answerFit(a);
+    const std::array<bool, kNumTerms> ambiguous = answerAmbiguous(a);
     std::string amb, rival;
     for (int t = 0; t < kNumTerms; ++t) {
-      if (f.ambiguous[static_cast<size_t>(t)]) amb += std::string(amb.empty() ? "" : ", ") + noiseTermKey(t);
+      if (ambiguous[static_cast<size_t>(t)]) amb += std::string(amb.empty() ? "" : ", ") + noiseTermKey(t);
       if ((f.rival_terms >> t) & 1) rival += std::string(rival.empty() ? "" : "+") + noiseTermKey(t);
     }
     if (!amb.empty()) {
@@ -465,6 +466,12 @@ const FitResult& answerFit(const AxisAnalysis& a) {
   if (a.method == "pulse_times") return a.pulse_fit;
   if (a.has_check && !a.check.effects.empty()) return a.check.fit_after;
   return a.fit;
+}
+
+std::array<bool, kNumTerms> answerAmbiguous(const AxisAnalysis& a) {
+  std::array<bool, kNumTerms> amb = answerFit(a).ambiguous;
+  if (a.method == "wavelet_split") amb[kQuantization] = amb[kAngleRandomWalk] = false;
+  return amb;
 }
 
 AxisAnalysis analyzeAxis(const std::string& axis, const std::vector<std::vector<double>>& segments, double tau0,

@@ -326,14 +326,14 @@ struct GlsFit {
     for (int col : ieee_cols) {
       const int t = P.term[static_cast<size_t>(col)];
       Coefficient& cc = r.terms_corrected[static_cast<size_t>(t)];
-      const bool in_rival = (r.rival_terms >> t) & 1;
-      if (cc.supported && !in_rival) {
+      const bool in_rival = (r.rival_terms >> t) & 1, selected = c[col] > 0;  // selected: by the subset search
+      if (selected && !in_rival) {  // (also when its selection-corrected value already dropped it)
         cc.supported = false;
         cc.value = 0.0;
         cc.lo68 = cc.lo95 = 0.0;
         cc.sigma = cc.hi68;
         r.ambiguous[static_cast<size_t>(t)] = true;
-      } else if (!cc.supported && in_rival && !rcols.empty()) {
+      } else if (!selected && in_rival && !rcols.empty()) {
         const auto k = static_cast<int>(std::find(rcols.begin(), rcols.end(), col) - rcols.begin());
         if (k >= static_cast<int>(rcols.size())) continue;
         const double x = std::max(0.0, est[k]), sd = std::sqrt(std::max(0.0, cov(k, k) * r.uncertainty_inflation));

@@ -336,7 +336,7 @@ struct PipelineRun {
   void addAccelTasks() {
     // Accelerometer: the same engine, joint fit only (the wavelet split and model check are tuned for gyros and
     // would double the run time); the mean (gravity) is removed first. Its sanitation and three axes are graph
-    // tasks after the last gyro check, so they run beside the last wavelet split.
+    // tasks after the second-to-last wavelet split, so they run beside the last gyro axis's split and check.
     if (options.accel && compact && !accel[0].empty() && accel[0].size() == n_stamps) {
       if (!accel_published) {  // an IMU without accelerometer publishes zeros
         accel_note = "accelerometer: linear_acceleration is all zero (not published?): not analysed";
@@ -362,9 +362,9 @@ struct PipelineRun {
         accel_error = e.what();
       }
     });
-    // After every split but the last: the accelerometer then overlaps only the last gyro axis (its split and check),
-    // when the other axes' samples are already freed. (It waited for the last check too until session 12; then the
-    // three accelerometer axes ran after everything else, one of them alone on a 2-core machine.)
+    // After every split but the last: on 2 threads the accelerometer then overlaps the last gyro axis's split and
+    // check (an earlier axis's check may still hold its samples with more threads). It waited for the last check too
+    // until session 12; then the three accelerometer axes ran after everything else, one of them alone on 2 cores.
     std::vector<size_t> after;
     if (split_tasks.size() > 1) after.push_back(split_tasks[split_tasks.size() - 2]);
     deps.push_back(after);

@@ -559,14 +559,18 @@ void reportCoefficients(const WaveletSplitOptions& options, const QnEstimate& e,
   } else {
     r->terms[kAngleRandomWalk] = r->denoised_fit.terms[kAngleRandomWalk];
   }
-  for (int t = kBiasInstability; t < kNumTerms; ++t) {
-    const size_t i = static_cast<size_t>(t);
-    // A term a close rival set of terms tells otherwise is reported as the fit's answer has it (FitResult::ambiguous).
-    const FitResult& f = r->denoised_fit;
-    if (options.enabled[i] && f.ok) r->terms[i] = f.ambiguous[i] ? f.terms_corrected[i] : f.terms[i];
-  }
   if (!options.enabled[kAngleRandomWalk]) r->terms[kAngleRandomWalk] = Coefficient{};
   if (!options.enabled[kQuantization]) r->terms[kQuantization] = Coefficient{};
+  r->model_terms = r->terms;
+  for (int t = kBiasInstability; t < kNumTerms; ++t) {
+    const size_t i = static_cast<size_t>(t);
+    // A term a close rival set of terms tells otherwise is reported as the fit's answer has it (FitResult::ambiguous);
+    // the model curve keeps the least-squares value.
+    const FitResult& f = r->denoised_fit;
+    if (!options.enabled[i] || !f.ok) continue;
+    r->model_terms[i] = f.terms[i];
+    r->terms[i] = f.ambiguous[i] ? f.terms_corrected[i] : f.terms[i];
+  }
 }
 
 // Model Allan variance of the given terms at the curve's taus.
@@ -580,8 +584,8 @@ std::vector<double> modelOf(const DeviationCurve& c, const std::array<Coefficien
 // 7. Fit error measures: the reported terms against the input's curve, and each part's own fit.
 void fitErrors(const DeviationCurve& raw_curve, WaveletSplitResult* r) {
   int n_params = 0;
-  for (const auto& c : r->terms) n_params += c.value > 0 ? 1 : 0;
-  r->fit_error = fitError(raw_curve, modelOf(raw_curve, r->terms), std::vector<bool>(raw_curve.points.size(), true),
+  for (const auto& c : r->model_terms) n_params += c.value > 0 ? 1 : 0;
+  r->fit_error = fitError(raw_curve, modelOf(raw_curve, r->model_terms), std::vector<bool>(raw_curve.points.size(), true),
                           std::max(1, n_params), FitOptions{}.rms_min_edf);
   if (r->denoised_fit.ok) {
     r->denoised_fit_error.rms_log10 = r->denoised_fit.rms_log10;

@@ -386,6 +386,24 @@ YAML::Node buildReport(const ReportMeta& meta, const std::vector<AxisAnalysis>& 
     n["coefficients"] = coefficientsNode(a.coefficients);
     n["fit"] = errorNode(a.final_error.rms_log10, a.final_error.chi2_dof);
     addQuality(&n, a);
+    {
+      // The term selection behind `coefficients` (answerFit): its closest non-nested rival and the answer's terms it
+      // makes ambiguous (also in methods.<method>.fit for the joint fit and pulse_times).
+      const FitResult& f = answerFit(a);
+      const std::array<bool, kNumTerms> amb = answerAmbiguous(a);
+      YAML::Node ts, rival(YAML::NodeType::Sequence), ambn(YAML::NodeType::Sequence);
+      for (int t = 0; t < kNumTerms; ++t) {
+        if ((f.rival_terms >> t) & 1) {
+          rival.push_back(str(noiseTermKey(t)));
+          ts["rival_values"][noiseTermKey(t)] = num(f.rival_values[static_cast<size_t>(t)]);
+        }
+        if (amb[static_cast<size_t>(t)]) ambn.push_back(str(noiseTermKey(t)));
+      }
+      ts["rival_terms"] = rival;
+      ts["rival_score_gap"] = num(f.rival_gap);
+      ts["ambiguous_terms"] = ambn;
+      n["term_selection"] = ts;
+    }
     if (a.quantized.quantized) n["quantized_output"] = quantizedNode(a.quantized);
     YAML::Node jf;
     jf["coefficients"] = coefficientsNode(a.fit);

@@ -8,7 +8,7 @@
 //                  [--define NAME:key=value,...]...
 //
 // --define adds a class of your own (a held-out class: nothing was tuned on it), in the units of the table below:
-//   --define ramp_strong:rate=200,hours=1,n=0.1,b=0.8,k=0.5,r=40      keys rate (Hz), hours, q (arcsec), n, b, k,
+//   --define my_ramp:rate=200,hours=1,n=0.1,b=0.8,k=0.5,r=40      keys rate (Hz), hours, q (arcsec), n, b, k,
 //   r, in (deg/h input rate), dither (1 or 0; default 1). Unset terms are 0. Repeatable. With --define only the
 //   defined classes run unless --classes names others too.
 //
@@ -56,6 +56,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <limits>
 #include <map>
 #include <mutex>
 #include <stdexcept>
@@ -162,7 +163,7 @@ struct Run {
   std::string quality;  // the axis's verdict (good | doubtful | bad); a bad axis's intervals are [0, inf)
   double rms_log10 = 0, chi2_dof = 0;
   std::string rival;  // the term selection's closest non-nested rival (FitResult::rival_terms), e.g. "NB"
-  double rival_gap = 0;
+  double rival_gap = std::numeric_limits<double>::infinity();  // (inf: no rival, or the run failed)
   std::array<double, kNumTerms> evidence{};  // FitResult::evidence of the same fit
   std::array<Coefficient, kNumTerms> c;
 };
@@ -310,7 +311,7 @@ void usage() {
                "                      [--rate HZ] [--max-samples N] [--threads N] [--csv FILE]\n"
                "                      [--method auto|joint_fit|wavelet_split] [--tau-grid G] [--no-model-check]\n"
                "                      [--no-wavelet-split] [--list] [--define NAME:key=value,...]...\n"
-               "  --define: a class of your own, e.g. ramp_strong:rate=200,hours=1,n=0.1,b=0.8,k=0.5,r=40\n"
+               "  --define: a class of your own, e.g. my_ramp:rate=200,hours=1,n=0.1,b=0.8,k=0.5,r=40\n"
                "  (keys rate hours q n b k r in dither; units as --list; unset terms 0; repeatable)\n"
                "  seeds 1-999: tuning set (1-30), 1001-: validation set (1001-1030). Default 1-20.\n"
                "  rate: each class's rate (--list) unless --rate; lowered to max-samples/duration when above it\n"
