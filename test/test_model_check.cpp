@@ -364,6 +364,16 @@ TEST(ModelCheck, BiasStepFound) {
     EXPECT_LT(o.mc.after.rms_log10, (1.0 - ModelCheckOptions{}.min_rms_gain) * o.mc.before.rms_log10);
     EXPECT_LT(o.mc.after.bic, o.mc.before.bic - 10.0);
     expectBaseRecovered(o.mc.fit_after, a);
+    // The answer's K and R (terms_corrected, what report.yaml and Kalibr take) are bounds, not zeros: the refit that
+    // explains the rise by the step leaves them out and bounds them from the fit that had them.
+    for (int t : {kRateRandomWalk, kRateRamp}) {
+      const Coefficient& c = o.mc.fit_after.terms_corrected[static_cast<size_t>(t)];
+      std::printf("answer %s: supported %d value %.3g sigma %.3g [%.3g, %.3g] / [%.3g, %.3g]\n", noiseTermKey(t),
+                  c.supported ? 1 : 0, c.value, c.sigma, c.lo68, c.hi68, c.lo95, c.hi95);
+      EXPECT_GT(c.sigma, 0.0) << noiseTermKey(t);
+      EXPECT_GT(c.hi68, 0.0) << noiseTermKey(t);
+      EXPECT_GE(c.hi95, c.hi68) << noiseTermKey(t);
+    }
   }
 }
 

@@ -97,7 +97,8 @@ struct AxisAnalysis {
 /// the model check's joint refit when it added effects, else the joint fit.
 const FitResult& answerFit(const AxisAnalysis& a);
 /// The terms of the answer (`coefficients`) that answerFit's closest rival makes ambiguous (FitResult::ambiguous);
-/// for the wavelet split only B, K and R, which come from that fit (Q and N come from the split's own estimators).
+/// for the wavelet split only B, K and R, which come from that fit (Q and N come from the split's own estimators),
+/// for pulse_times all but Q (the lattice's pulse weight).
 std::array<bool, kNumTerms> answerAmbiguous(const AxisAnalysis& a);
 
 /// Rate samples [rad/s] of one gap-free segment of angle samples, in place: an accumulated angle theta (n points)

@@ -114,9 +114,9 @@ struct FitResult {
   int rival_terms = 0;
   double rival_gap = std::numeric_limits<double>::infinity();
   std::array<double, kNumTerms> rival_values{{0, 0, 0, 0, 0}};  ///< the rival's least-squares coefficients
-  /// Terms the rival tells otherwise when it scores within kRivalGap: a selected term it does without is reported
-  /// unsupported in terms_corrected (value 0, interval from 0), a term of its that the answer lacks gets at least the
-  /// rival's upper ends.
+  /// Terms the rival tells otherwise when it scores within kRivalGap: a term the search selected and the rival does
+  /// without is reported unsupported in terms_corrected (value 0, interval from 0), a term of the rival's that the
+  /// search did not select gets at least the rival's upper ends. A rival must keep N when the selection has it.
   std::array<bool, kNumTerms> ambiguous{{false, false, false, false, false}};
 };
 

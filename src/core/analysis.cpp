@@ -471,6 +471,7 @@ const FitResult& answerFit(const AxisAnalysis& a) {
 std::array<bool, kNumTerms> answerAmbiguous(const AxisAnalysis& a) {
   std::array<bool, kNumTerms> amb = answerFit(a).ambiguous;
   if (a.method == "wavelet_split") amb[kQuantization] = amb[kAngleRandomWalk] = false;
+  if (a.method == "pulse_times") amb[kQuantization] = false;  // Q is the lattice's pulse weight / sqrt(12)
   return amb;
 }
 

@@ -229,10 +229,16 @@ Model fitModel(const DeviationCurve& curve, const Model& previous, const FitOpti
         if (full.bic <= c.bic + 2.0) c = full;  // keep the bounds unless they cost the fit
       }
       // K and R left out: report them unsupported with a 1-sigma upper bound from the fit that had them.
+      // Into the answer (terms_corrected) too, with the bound as the upper end of its 68 % interval: before session
+      // 12 only `terms` got it, and the answer's K and R were all zeros (Kalibr then took 0 as K's bound).
       for (int t : {kRateRandomWalk, kRateRamp}) {
         if (c.fit.terms[t].supported || !full.fit.ok) continue;
         const Coefficient& fc = full.fit.terms[t];
-        c.fit.terms[t] = Coefficient{0.0, fc.supported ? fc.value + fc.sigma : fc.sigma, false};
+        Coefficient b{0.0, fc.supported ? fc.value + fc.sigma : fc.sigma, false};
+        b.hi68 = b.sigma;
+        b.hi95 = std::max(b.sigma, fc.hi95);
+        c.fit.terms[t] = b;
+        c.fit.terms_corrected[t] = b;
       }
       if (!best.ok || c.bic < best.bic) best = c;
     }

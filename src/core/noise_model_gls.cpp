@@ -299,9 +299,14 @@ struct GlsFit {
     int sel = 0;
     for (int col : ieee_cols)
       if (c[col] > 0) sel |= 1 << P.term[static_cast<size_t>(col)];
+    const int n_bit = 1 << kAngleRandomWalk;
     for (size_t i = 0; i < scored.size(); ++i) {
       const auto& [terms, score] = scored[i];
       if ((terms & sel) == terms || (terms & sel) == sel) continue;
+      // A set without the white-noise floor N is no rival to one with it: every gyro has N, and taking N away would
+      // leave an answer with no N (a bad verdict, unbounded intervals). None of the session-12 study records had one
+      // within the gap.
+      if ((sel & n_bit) && !(terms & n_bit)) continue;
       if (score - best_score < r.rival_gap) r.rival_gap = score - best_score, r.rival_terms = terms, rival_c = fits[i];
     }
   }
@@ -491,7 +496,7 @@ struct GlsFit {
 
   // `terms`: the least-squares values behind the model curve (the model check works with these); `terms_corrected`:
   // the answer, with the selection-corrected values and the barely selected terms dropped. Both carry the same
-  // intervals.
+  // intervals, until ambiguity() changes those of terms_corrected that a close rival disagrees on.
   void coefficients() {
     for (int col = 0; col < ncol; ++col) {
       const TermInference& ti = inf[static_cast<size_t>(col)];
