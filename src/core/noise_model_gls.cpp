@@ -312,9 +312,9 @@ struct GlsFit {
   }
 
   // Terms the closest rival tells otherwise, when it scores within kRivalGap of the selection (FitResult::ambiguous):
-  // a selected term the rival does without is not supported (its value 0, its interval from 0 to its upper end), and
-  // a rival's term the answer lacks gets at least the rival's plain upper ends (its free least-squares value + 1 and
-  // 1.96 sd at the full model's covariance). The selective intervals (inferAll) condition on which terms were kept,
+  // a term the search selected and the rival does without is not supported (its value 0, its interval from 0 to its
+  // upper end), and a rival's term the search did not select gets at least the rival's plain upper ends (its free
+  // least-squares value + 1 and 1.96 sd at the full model's covariance). The selective intervals (inferAll) condition on which terms were kept,
   // not on which non-nested set of terms won: where a rate random walk told the record about as well as bias
   // instability plus a ramp, K was reported at 3-10x its truth with an interval that excluded it.
   void ambiguity(const Whitened& w) {
