@@ -318,13 +318,13 @@ struct GlsFit {
   // not on which non-nested set of terms won: where a rate random walk told the record about as well as bias
   // instability plus a ramp, K was reported at 3-10x its truth with an interval that excluded it.
   void ambiguity(const Whitened& w) {
-    for (int col : ieee_cols)
-      if (rival_c.size() == ncol && rival_c[col] > 0)
+    std::vector<int> rcols;  // the rival's columns (extra terms included)
+    for (int col = 0; col < ncol && rival_c.size() == ncol; ++col)
+      if (rival_c[col] > 0) rcols.push_back(col);
+    for (int col : rcols)
+      if (P.term[static_cast<size_t>(col)] < kNumTerms)
         r.rival_values[static_cast<size_t>(P.term[static_cast<size_t>(col)])] = std::sqrt(rival_c[col]);
     if (!(r.rival_gap < kRivalGap)) return;
-    std::vector<int> rcols;
-    for (int col = 0; col < ncol; ++col)
-      if (rival_c.size() == ncol && rival_c[col] > 0) rcols.push_back(col);
     Eigen::VectorXd est;
     Eigen::MatrixXd cov;
     if (!rcols.empty()) solveFree(w, rcols, &est, &cov);

@@ -156,6 +156,22 @@ std::string spikesLine(const AxisAnalysis& a, const char* label, double factor, 
   return std::string(buf) + "\n";
 }
 
+/// The closest non-nested rival set of terms of a fit, its values and score gap, and the terms it makes ambiguous
+/// (noise_model.hpp FitResult::rival_terms, FitResult::ambiguous; `ambiguous` as they apply to what is reported).
+void addRivalFields(YAML::Node* n, const FitResult& fit, const std::array<bool, kNumTerms>& ambiguous) {
+  YAML::Node rival(YAML::NodeType::Sequence), amb(YAML::NodeType::Sequence);
+  for (int t = 0; t < kNumTerms; ++t) {
+    if ((fit.rival_terms >> t) & 1) {
+      rival.push_back(str(noiseTermKey(t)));
+      (*n)["rival_values"][noiseTermKey(t)] = num(fit.rival_values[static_cast<size_t>(t)]);
+    }
+    if (ambiguous[static_cast<size_t>(t)]) amb.push_back(str(noiseTermKey(t)));
+  }
+  (*n)["rival_terms"] = rival;
+  (*n)["rival_score_gap"] = num(fit.rival_gap);
+  (*n)["ambiguous_terms"] = amb;
+}
+
 YAML::Node fitNode(const FitResult& fit) {
   YAML::Node n;
   n["ok"] = fit.ok;
@@ -176,18 +192,7 @@ YAML::Node fitNode(const FitResult& fit) {
     for (int t = 0; t < kNumTerms; ++t)
       if (fit.dropped_by_correction[static_cast<size_t>(t)]) dropped.push_back(str(noiseTermKey(t)));
     n["dropped_by_selection_correction"] = dropped;
-    // The closest non-nested rival set of terms and its score gap; within kRivalGap its disagreeing terms are
-    // ambiguous (noise_model.hpp FitResult::ambiguous).
-    YAML::Node rival(YAML::NodeType::Sequence), amb(YAML::NodeType::Sequence);
-    for (int t = 0; t < kNumTerms; ++t) {
-      if ((fit.rival_terms >> t) & 1) rival.push_back(str(noiseTermKey(t)));
-      if (fit.ambiguous[static_cast<size_t>(t)]) amb.push_back(str(noiseTermKey(t)));
-    }
-    n["rival_terms"] = rival;
-    for (int t = 0; t < kNumTerms; ++t)
-      if ((fit.rival_terms >> t) & 1) n["rival_values"][noiseTermKey(t)] = num(fit.rival_values[static_cast<size_t>(t)]);
-    n["rival_score_gap"] = num(fit.rival_gap);
-    n["ambiguous_terms"] = amb;
+    addRivalFields(&n, fit, fit.ambiguous);
   } else {
     n["weighting"] = str("edf");
   }
@@ -389,19 +394,8 @@ YAML::Node buildReport(const ReportMeta& meta, const std::vector<AxisAnalysis>& 
     {
       // The term selection behind `coefficients` (answerFit): its closest non-nested rival and the answer's terms it
       // makes ambiguous (also in methods.<method>.fit for the joint fit and pulse_times).
-      const FitResult& f = answerFit(a);
-      const std::array<bool, kNumTerms> amb = answerAmbiguous(a);
-      YAML::Node ts, rival(YAML::NodeType::Sequence), ambn(YAML::NodeType::Sequence);
-      for (int t = 0; t < kNumTerms; ++t) {
-        if ((f.rival_terms >> t) & 1) {
-          rival.push_back(str(noiseTermKey(t)));
-          ts["rival_values"][noiseTermKey(t)] = num(f.rival_values[static_cast<size_t>(t)]);
-        }
-        if (amb[static_cast<size_t>(t)]) ambn.push_back(str(noiseTermKey(t)));
-      }
-      ts["rival_terms"] = rival;
-      ts["rival_score_gap"] = num(f.rival_gap);
-      ts["ambiguous_terms"] = ambn;
+      YAML::Node ts;
+      addRivalFields(&ts, answerFit(a), answerAmbiguous(a));
       n["term_selection"] = ts;
     }
     if (a.quantized.quantized) n["quantized_output"] = quantizedNode(a.quantized);

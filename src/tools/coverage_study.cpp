@@ -261,11 +261,13 @@ std::vector<std::string> splitList(const std::string& s) {
   return out;
 }
 
-double parseNonNegative(const std::string& s, const std::string& what) {
+/// A finite number > 0 (>= 0 with allow_zero), else invalid_argument naming `what`.
+double parseNumber(const std::string& s, const std::string& what, bool allow_zero) {
   char* end = nullptr;
   const double v = std::strtod(s.c_str(), &end);
-  if (s.empty() || *end != '\0' || !(v >= 0) || !std::isfinite(v))
-    throw std::invalid_argument(what + ": not a non-negative number: '" + s + "'");
+  if (s.empty() || *end != '\0' || !std::isfinite(v) || !(allow_zero ? v >= 0 : v > 0))
+    throw std::invalid_argument(what + (allow_zero ? ": not a non-negative number: '" : ": not a positive number: '") +
+                                s + "'");
   return v;
 }
 
@@ -280,7 +282,7 @@ Class defineClass(const std::string& spec) {
   for (const auto& kv : splitList(spec.substr(colon + 1))) {
     const size_t eq = kv.find('=');
     const std::string key = kv.substr(0, eq), val = eq == std::string::npos ? "" : kv.substr(eq + 1);
-    const double v = parseNonNegative(val, "--define " + name + " " + key);
+    const double v = parseNumber(val, "--define " + name + " " + key, true);
     if (key == "rate") c.rate_hz = v, rate = v > 0;
     else if (key == "hours") c.duration_s = v * 3600.0, hours = v > 0;
     else if (key == "q") c.a.quantization = v * kArcsec;
@@ -297,13 +299,7 @@ Class defineClass(const std::string& spec) {
   return c;
 }
 
-double parsePositive(const std::string& s, const char* what) {
-  char* end = nullptr;
-  const double v = std::strtod(s.c_str(), &end);
-  if (s.empty() || *end != '\0' || !(v > 0) || !std::isfinite(v))
-    throw std::invalid_argument(std::string(what) + ": not a positive number: '" + s + "'");
-  return v;
-}
+double parsePositive(const std::string& s, const char* what) { return parseNumber(s, what, false); }
 
 void usage() {
   std::fprintf(stderr,
