@@ -108,23 +108,29 @@ struct FitResult {
   /// just passed) is dropped: `dropped_by_correction`. `terms` keeps the least-squares values behind model_var.
   std::array<Coefficient, kNumTerms> terms_corrected;
   std::array<bool, kNumTerms> dropped_by_correction{{false, false, false, false, false}};
-  /// Term selection's closest non-nested rival (covariance weighting): the best-scoring subset of IEEE terms that
-  /// neither contains nor is contained in the selected one, as a bit set (1 << term; 0 = none), and how much its
-  /// score (chi-squared + penalties) exceeds the selection's.
+  /// Term selection's closest non-nested rival (covariance weighting): the subset of IEEE terms that neither contains
+  /// nor is contained in the selected one and comes closest to it, as a bit set (1 << term; 0 = none), and how close:
+  /// the smaller of two differences, in the selection's score (chi-squared + penalties) and in AIC's (chi-squared + 2
+  /// per term). Negative when the rival fits better than the selection even after AIC's charge for its extra terms.
   int rival_terms = 0;
   double rival_gap = std::numeric_limits<double>::infinity();
+  double rival_score_gap = std::numeric_limits<double>::infinity();  ///< the closest rival's score difference
+  double rival_aic_gap = std::numeric_limits<double>::infinity();    ///< ... and its AIC difference
+  std::vector<int> close_rival_terms;  ///< every rival within kRivalGap, as bit sets (the closest first)
   std::array<double, kNumTerms> rival_values{{0, 0, 0, 0, 0}};  ///< the rival's least-squares coefficients
-  /// Terms the rival tells otherwise when it scores within kRivalGap: a term the search selected and the rival does
-  /// without is reported unsupported in terms_corrected (value 0, interval from 0), a term of the rival's that the
-  /// search did not select gets at least the rival's upper ends. A rival must keep N when the selection has it.
+  /// Terms a rival tells otherwise, for every rival within kRivalGap (not only the closest): a term the search
+  /// selected and the rival does without is reported unsupported in terms_corrected (value 0, interval from 0), a
+  /// term of the rival's that the search did not select gets at least the rival's upper ends. A rival must keep N
+  /// when the selection has it.
   std::array<bool, kNumTerms> ambiguous{{false, false, false, false, false}};
 };
 
-/// A non-nested rival set of terms scoring within this of the selection (chi-squared + penalties) makes the terms the
-/// two disagree on ambiguous (FitResult::ambiguous). 2 is taken from the information-criterion rule of thumb for a
-/// rival with substantial support (Burnham & Anderson 2002, AIC Delta <= 2); the score here charges 4 per term (6 for
-/// the ramp) rather than AIC's 2, so the analogy is exact only between sets of equal size. Not tuned on the coverage
-/// study (docs/calibration.md, "Session 12").
+/// A non-nested rival set of terms within this of the selection makes the terms the two disagree on ambiguous
+/// (FitResult::ambiguous). 2 is the information-criterion rule of thumb for a model with substantial support (Burnham &
+/// Anderson 2002, AIC Delta <= 2). The selection's score charges 4 per term (6 for the ramp), AIC 2, so the two
+/// differ between sets of different size; a rival counts when it is within 2 on either: on the score (a smaller
+/// rival, which the heavier charge favours) or on AIC (a larger one: e.g. N + B + R fitting as well in chi-squared as
+/// the N + K that parsimony chose). Not tuned on the coverage study (docs/calibration.md, "Sessions 12-13").
 constexpr double kRivalGap = 2.0;
 
 /// Fits the model to `curve` (AVAR in curve.points[i].var; weights from points[i].edf; edf <= 0 is treated as

@@ -445,11 +445,12 @@ AxisAnalysis AxisStages::finish() {
       if ((f.rival_terms >> t) & 1) rival += std::string(rival.empty() ? "" : "+") + noiseTermKey(t);
     }
     if (!amb.empty()) {
-      char buf[400];
+      char buf[640];
       std::snprintf(buf, sizeof buf,
-                    "ambiguous terms (%s): the terms %s tell the record within %.3g of the selection in chi-squared + "
-                    "penalties (< %g); a selected term they do without is reported as an upper bound, and the "
-                    "intervals of theirs reach their values",
+                    "ambiguous terms (%s): other terms tell the record about as well (the closest, %s, within %.3g "
+                    "of the selection in chi-squared + penalties or in AIC; every rival within %g counts); a "
+                    "selected term a rival does without is reported as an upper bound, and the intervals of a "
+                    "rival's terms reach its values",
                     amb.c_str(), rival.c_str(), f.rival_gap, kRivalGap);
       a.notes.push_back(buf);
     }

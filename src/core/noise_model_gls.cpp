@@ -200,6 +200,13 @@ struct GlsFit {
   Eigen::VectorXd c_full;                    // ... of the full model (before term selection)
   Eigen::MatrixXd cov_full;                  // the full model's covariance of the estimates
   Eigen::VectorXd rival_c;                   // the closest non-nested rival's weights (selectTerms)
+  struct CloseRival {
+    double gap;
+    int terms;
+    size_t index;
+    Eigen::VectorXd weights;
+  };
+  std::vector<CloseRival> close_rivals;      // every rival within kRivalGap (selectTerms), the closest first
   std::vector<int> pos;                      // the selected columns
   struct TermInference {
     bool corrected_out = false;
@@ -274,7 +281,11 @@ struct GlsFit {
     double best_score = std::numeric_limits<double>::infinity();
     Eigen::VectorXd best_c = c;
     const int ne = static_cast<int>(ieee_cols.size());
-    std::vector<std::pair<int, double>> scored;  // (IEEE terms with a positive weight, as 1 << term; score)
+    struct Scored {
+      int terms;           // IEEE terms with a positive weight, as 1 << term
+      double score, aic;   // the selection's score (chi-squared + penalties) and AIC's (chi-squared + 2 per term)
+    };
+    std::vector<Scored> scored;
     std::vector<Eigen::VectorXd> fits;           // their weights
     for (int mask = 0; mask < (1 << ne); ++mask) {
       std::vector<int> cols = extras;
@@ -285,67 +296,86 @@ struct GlsFit {
       double score = solveNnls(w, cols, &cs);
       fits.push_back(cs);
       int terms = 0;
+      double aic = score;  // the rival is judged on AIC's scale (2 per term; kRivalGap)
       for (int col : ieee_cols)
-        if (cs[col] > 0) score += penalty(col), terms |= 1 << P.term[static_cast<size_t>(col)];
-      scored.push_back({terms, score});
+        if (cs[col] > 0) score += penalty(col), aic += 2.0, terms |= 1 << P.term[static_cast<size_t>(col)];
+      scored.push_back({terms, score, aic});
       if (score < best_score - 1e-9) {
         best_score = score;
         best_c = cs;
       }
     }
     c = best_c;
-    // The closest rival that tells the record with other terms: neither a subset nor a superset of the selection
-    // (nested alternatives are what each term's selective interval accounts for).
+    // Rivals that tell the record with other terms: neither a subset nor a superset of the selection (nested
+    // alternatives are what each term's selective interval accounts for), within kRivalGap on the score or on AIC
+    // (noise_model.hpp). The closest one is reported.
     int sel = 0;
+    double sel_aic = std::numeric_limits<double>::infinity();
     for (int col : ieee_cols)
       if (c[col] > 0) sel |= 1 << P.term[static_cast<size_t>(col)];
+    for (const Scored& x : scored)
+      if (x.terms == sel) sel_aic = std::min(sel_aic, x.aic);
     const int n_bit = 1 << kAngleRandomWalk;
     for (size_t i = 0; i < scored.size(); ++i) {
-      const auto& [terms, score] = scored[i];
+      const int terms = scored[i].terms;
+      const double gap = std::min(scored[i].score - best_score, scored[i].aic - sel_aic);
       if ((terms & sel) == terms || (terms & sel) == sel) continue;
       // A set without the white-noise floor N is no rival to one with it: every gyro has N, and taking N away would
       // leave an answer with no N (a bad verdict, unbounded intervals). None of the session-12 study records had one
       // within the gap.
       if ((sel & n_bit) && !(terms & n_bit)) continue;
-      if (score - best_score < r.rival_gap) r.rival_gap = score - best_score, r.rival_terms = terms, rival_c = fits[i];
+      // (A subset whose extra column came out at 0 has the terms of a smaller one: counted once.)
+      const bool seen =
+          std::any_of(close_rivals.begin(), close_rivals.end(), [&](const CloseRival& x) { return x.terms == terms; });
+      if (gap < kRivalGap && !seen) close_rivals.push_back({gap, terms, i, Eigen::VectorXd()});
+      if (gap < r.rival_gap) {
+        r.rival_gap = gap, r.rival_terms = terms, rival_c = fits[i];
+        r.rival_score_gap = scored[i].score - best_score, r.rival_aic_gap = scored[i].aic - sel_aic;
+      }
+    }
+    std::sort(close_rivals.begin(), close_rivals.end(), [](const auto& a, const auto& b) { return a.gap < b.gap; });
+    for (auto& cr : close_rivals) {
+      r.close_rival_terms.push_back(cr.terms);
+      cr.weights = fits[cr.index];
     }
   }
 
-  // Terms the closest rival tells otherwise, when it scores within kRivalGap of the selection (FitResult::ambiguous):
+  // Terms a rival within kRivalGap tells otherwise, for every such rival (FitResult::ambiguous):
   // a term the search selected and the rival does without is not supported (its value 0, its interval from 0 to its
   // upper end), and a rival's term the search did not select gets at least the rival's plain upper ends (its free
   // least-squares value + 1 and 1.96 sd at the full model's covariance). The selective intervals (inferAll) condition on which terms were kept,
   // not on which non-nested set of terms won: where a rate random walk told the record about as well as bias
   // instability plus a ramp, K was reported at 3-10x its truth with an interval that excluded it.
   void ambiguity(const Whitened& w) {
-    std::vector<int> rcols;  // the rival's columns (extra terms included)
     for (int col = 0; col < ncol && rival_c.size() == ncol; ++col)
-      if (rival_c[col] > 0) rcols.push_back(col);
-    for (int col : rcols)
-      if (P.term[static_cast<size_t>(col)] < kNumTerms)
+      if (rival_c[col] > 0 && P.term[static_cast<size_t>(col)] < kNumTerms)
         r.rival_values[static_cast<size_t>(P.term[static_cast<size_t>(col)])] = std::sqrt(rival_c[col]);
-    if (!(r.rival_gap < kRivalGap)) return;
-    Eigen::VectorXd est;
-    Eigen::MatrixXd cov;
-    if (!rcols.empty()) solveFree(w, rcols, &est, &cov);
-    for (int col : ieee_cols) {
-      const int t = P.term[static_cast<size_t>(col)];
-      Coefficient& cc = r.terms_corrected[static_cast<size_t>(t)];
-      const bool in_rival = (r.rival_terms >> t) & 1, selected = c[col] > 0;  // selected: by the subset search
-      if (selected && !in_rival) {  // (also when its selection-corrected value already dropped it)
-        cc.supported = false;
-        cc.value = 0.0;
-        cc.lo68 = cc.lo95 = 0.0;
-        cc.sigma = cc.hi68;
-        r.ambiguous[static_cast<size_t>(t)] = true;
-      } else if (!selected && in_rival && !rcols.empty()) {
-        const auto k = static_cast<int>(std::find(rcols.begin(), rcols.end(), col) - rcols.begin());
-        if (k >= static_cast<int>(rcols.size())) continue;
-        const double x = std::max(0.0, est[k]), sd = std::sqrt(std::max(0.0, cov(k, k) * r.uncertainty_inflation));
-        cc.hi68 = std::max(cc.hi68, std::sqrt(x + sd));
-        cc.hi95 = std::max(cc.hi95, std::sqrt(x + 1.96 * sd));
-        cc.sigma = cc.hi68;
-        r.ambiguous[static_cast<size_t>(t)] = true;
+    for (const CloseRival& cr : close_rivals) {
+      const Eigen::VectorXd& rc = cr.weights;
+      std::vector<int> rcols;  // this rival's columns (extra terms included)
+      for (int col = 0; col < ncol; ++col)
+        if (rc[col] > 0) rcols.push_back(col);
+      Eigen::VectorXd est;
+      Eigen::MatrixXd cov;
+      if (!rcols.empty()) solveFree(w, rcols, &est, &cov);
+      for (int col : ieee_cols) {
+        const int t = P.term[static_cast<size_t>(col)];
+        Coefficient& cc = r.terms_corrected[static_cast<size_t>(t)];
+        const bool in_rival = rc[col] > 0, selected = c[col] > 0;  // selected: by the subset search
+        if (selected && !in_rival) {  // (also when its selection-corrected value already dropped it)
+          cc.supported = false;
+          cc.value = 0.0;
+          cc.lo68 = cc.lo95 = 0.0;
+          cc.sigma = cc.hi68;
+          r.ambiguous[static_cast<size_t>(t)] = true;
+        } else if (!selected && in_rival && !rcols.empty()) {
+          const auto k = static_cast<int>(std::find(rcols.begin(), rcols.end(), col) - rcols.begin());
+          const double x = std::max(0.0, est[k]), sd = std::sqrt(std::max(0.0, cov(k, k) * r.uncertainty_inflation));
+          cc.hi68 = std::max(cc.hi68, std::sqrt(x + sd));
+          cc.hi95 = std::max(cc.hi95, std::sqrt(x + 1.96 * sd));
+          cc.sigma = cc.hi68;
+          r.ambiguous[static_cast<size_t>(t)] = true;
+        }
       }
     }
   }

@@ -168,7 +168,17 @@ void addRivalFields(YAML::Node* n, const FitResult& fit, const std::array<bool, 
     if (ambiguous[static_cast<size_t>(t)]) amb.push_back(str(noiseTermKey(t)));
   }
   (*n)["rival_terms"] = rival;
-  (*n)["rival_score_gap"] = num(fit.rival_gap);
+  (*n)["rival_gap"] = num(fit.rival_gap);
+  (*n)["rival_score_gap"] = num(fit.rival_score_gap);
+  (*n)["rival_aic_gap"] = num(fit.rival_aic_gap);
+  YAML::Node close(YAML::NodeType::Sequence);
+  for (int terms : fit.close_rival_terms) {
+    std::string s;
+    for (int t = 0; t < kNumTerms; ++t)
+      if ((terms >> t) & 1) s += std::string(s.empty() ? "" : "+") + noiseTermKey(t);
+    close.push_back(str(s));
+  }
+  (*n)["close_rivals"] = close;
   (*n)["ambiguous_terms"] = amb;
 }
 
