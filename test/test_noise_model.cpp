@@ -183,7 +183,7 @@ TEST(NoiseModel, CloseRivalMakesTheTermsItDisagreesOnAmbiguous) {
   a.bias_instability = 0.8 * deg / 3600.0;
   a.rate_random_walk = 0.5 * deg / 3600.0 / 60.0;
   a.rate_ramp = 6.0 * deg / 3600.0 / 3600.0;
-  int close = 0, far = 0, removed = 0, rival_checked = 0, aic_only = 0;
+  int close = 0, far = 0, removed = 0, rival_checked = 0, aic_only = 0, by_other_rival = 0;
   for (uint64_t seed = 7801; seed <= 7830; ++seed) {
     const std::vector<double> y = simulateAxis(a, 20.0, 72000, seed, 0);
     DeviationCurve c = computeDeviation("oadev", y, InputKind::Rate, 1.0 / 20.0, DeviationOptions{});
@@ -201,6 +201,11 @@ TEST(NoiseModel, CloseRivalMakesTheTermsItDisagreesOnAmbiguous) {
       EXPECT_EQ(f.close_rival_terms.front(), f.rival_terms) << "seed " << seed;
     }
     if (f.rival_score_gap >= kRivalGap && f.rival_aic_gap < kRivalGap) ++aic_only;
+    for (int rt : f.close_rival_terms) {  // each listed rival: non-nested, and keeps N
+      EXPECT_NE(rt & sel, rt) << "seed " << seed;
+      EXPECT_NE(rt & sel, sel) << "seed " << seed;
+      EXPECT_TRUE((rt >> kAngleRandomWalk) & 1) << "seed " << seed;
+    }
     for (int t = 0; t < kNumTerms; ++t) {
       const size_t i = static_cast<size_t>(t);
       const bool in_rival = (f.rival_terms >> t) & 1, selected = (sel >> t) & 1;
@@ -208,6 +213,7 @@ TEST(NoiseModel, CloseRivalMakesTheTermsItDisagreesOnAmbiguous) {
       bool disputed = false;  // by some rival within the gap
       for (int rt : f.close_rival_terms) disputed = disputed || (((rt >> t) & 1) != selected);
       EXPECT_EQ(f.ambiguous[i], disputed) << "seed " << seed << " " << noiseTermKey(t);
+      if (disputed && (!(f.rival_gap < kRivalGap) || in_rival == selected)) ++by_other_rival;
       if (!disputed) continue;
       if (selected) {
         ++removed;
@@ -227,12 +233,14 @@ TEST(NoiseModel, CloseRivalMakesTheTermsItDisagreesOnAmbiguous) {
     (f.rival_gap < kRivalGap ? close : far) += 1;
   }
   std::printf("rival within %g: %d of 30 records (%d on AIC's side only); %d selected terms removed, %d rival terms "
-              "checked\n", kRivalGap, close, aic_only, removed, rival_checked);
+              "checked; %d terms made ambiguous by a rival other than the closest\n",
+              kRivalGap, close, aic_only, removed, rival_checked, by_other_rival);
   EXPECT_GT(close, 0);
   EXPECT_GT(far, 0);
   EXPECT_GT(removed, 0);
   EXPECT_GT(rival_checked, 0);
-  EXPECT_GT(aic_only, 0);  // the AIC side admits rivals the score alone would not
+  EXPECT_GT(aic_only, 0);        // the AIC side admits rivals the score alone would not
+  EXPECT_GT(by_other_rival, 0);  // and rivals other than the closest count
 }
 
 // The same rule through the wavelet split (its B, K, R come from the denoised part's fit): a dithered MEMS-like gyro
@@ -262,7 +270,8 @@ TEST(NoiseModel, CloseRivalInTheWaveletSplitKeepsItsModelCurve) {
     const size_t i = static_cast<size_t>(t);
     n_amb += amb[i];
     if (r.coefficients[i].supported) {
-      EXPECT_TRUE((f.rival_terms >> t) & 1) << noiseTermKey(t) << " claimed though a close rival does without it";
+      for (int rt : f.close_rival_terms)
+        EXPECT_TRUE((rt >> t) & 1) << noiseTermKey(t) << " claimed though a close rival does without it";
     }
   }
   EXPECT_GT(n_amb, 0);

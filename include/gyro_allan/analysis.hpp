@@ -96,7 +96,7 @@ struct AxisAnalysis {
 /// The IEEE fit behind an analysed axis's B, K and R: the wavelet split's fit of the denoised part, pulse_times' fit,
 /// the model check's joint refit when it added effects, else the joint fit.
 const FitResult& answerFit(const AxisAnalysis& a);
-/// The terms of the answer (`coefficients`) that answerFit's closest rival makes ambiguous (FitResult::ambiguous);
+/// The terms of the answer (`coefficients`) that answerFit's close rivals make ambiguous (FitResult::ambiguous);
 /// for the wavelet split only B, K and R, which come from that fit (Q and N come from the split's own estimators),
 /// for pulse_times all but Q (the lattice's pulse weight).
 std::array<bool, kNumTerms> answerAmbiguous(const AxisAnalysis& a);

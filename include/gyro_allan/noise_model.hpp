@@ -128,7 +128,8 @@ struct FitResult {
 /// A non-nested rival set of terms within this of the selection makes the terms the two disagree on ambiguous
 /// (FitResult::ambiguous). 2 is the information-criterion rule of thumb for a model with substantial support (Burnham &
 /// Anderson 2002, AIC Delta <= 2). The selection's score charges 4 per term (6 for the ramp), AIC 2, so the two
-/// differ between sets of different size; a rival counts when it is within 2 on either: on the score (a smaller
+/// differ between sets of different size, or where only one has the ramp (N + R against N + B: the score gap is
+/// AIC's + 2); a rival counts when it is within 2 on either: on the score (a smaller
 /// rival, which the heavier charge favours) or on AIC (a larger one: e.g. N + B + R fitting as well in chi-squared as
 /// the N + K that parsimony chose). Not tuned on the coverage study (docs/calibration.md, "Sessions 12-13").
 constexpr double kRivalGap = 2.0;

@@ -439,19 +439,23 @@ AxisAnalysis AxisStages::finish() {
     // Terms a close rival set of terms tells otherwise (noise_model.hpp FitResult::ambiguous): say which and why.
     const FitResult& f = answerFit(a);
     const std::array<bool, kNumTerms> ambiguous = answerAmbiguous(a);
-    std::string amb, rival;
-    for (int t = 0; t < kNumTerms; ++t) {
+    std::string amb, rivals;
+    for (int t = 0; t < kNumTerms; ++t)
       if (ambiguous[static_cast<size_t>(t)]) amb += std::string(amb.empty() ? "" : ", ") + noiseTermKey(t);
-      if ((f.rival_terms >> t) & 1) rival += std::string(rival.empty() ? "" : "+") + noiseTermKey(t);
+    for (int terms : f.close_rival_terms) {
+      std::string s;
+      for (int t = 0; t < kNumTerms; ++t)
+        if ((terms >> t) & 1) s += std::string(s.empty() ? "" : "+") + noiseTermKey(t);
+      rivals += std::string(rivals.empty() ? "" : "; ") + s;
     }
     if (!amb.empty()) {
-      char buf[640];
+      char buf[1200];
       std::snprintf(buf, sizeof buf,
-                    "ambiguous terms (%s): other terms tell the record about as well (the closest, %s, within %.3g "
-                    "of the selection in chi-squared + penalties or in AIC; every rival within %g counts); a "
-                    "selected term a rival does without is reported as an upper bound, and the intervals of a "
-                    "rival's terms reach its values",
-                    amb.c_str(), rival.c_str(), f.rival_gap, kRivalGap);
+                    "ambiguous terms (%s): other sets of terms tell the record about as well, within %g of the "
+                    "selection in chi-squared + penalties or in AIC (%s; the closest's gap %.3g, negative when it "
+                    "fits better); a selected term a rival does without is reported as an upper bound, and the "
+                    "intervals of a rival's terms reach its values",
+                    amb.c_str(), kRivalGap, rivals.c_str(), f.rival_gap);
       a.notes.push_back(buf);
     }
   }

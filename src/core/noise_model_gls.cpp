@@ -324,7 +324,7 @@ struct GlsFit {
       // leave an answer with no N (a bad verdict, unbounded intervals). None of the session-12 study records had one
       // within the gap.
       if ((sel & n_bit) && !(terms & n_bit)) continue;
-      // (A subset whose extra column came out at 0 has the terms of a smaller one: counted once.)
+      // (A subset with an IEEE column that came out at 0 has the terms of a smaller one: counted once.)
       const bool seen =
           std::any_of(close_rivals.begin(), close_rivals.end(), [&](const CloseRival& x) { return x.terms == terms; });
       if (gap < kRivalGap && !seen) close_rivals.push_back({gap, terms, i, Eigen::VectorXd()});
@@ -333,7 +333,9 @@ struct GlsFit {
         r.rival_score_gap = scored[i].score - best_score, r.rival_aic_gap = scored[i].aic - sel_aic;
       }
     }
-    std::sort(close_rivals.begin(), close_rivals.end(), [](const auto& a, const auto& b) { return a.gap < b.gap; });
+    // (stable: on a tie the first in subset order comes first, as for rival_terms above)
+    std::stable_sort(close_rivals.begin(), close_rivals.end(),
+                     [](const auto& a, const auto& b) { return a.gap < b.gap; });
     for (auto& cr : close_rivals) {
       r.close_rival_terms.push_back(cr.terms);
       cr.weights = fits[cr.index];

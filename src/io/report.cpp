@@ -156,8 +156,9 @@ std::string spikesLine(const AxisAnalysis& a, const char* label, double factor, 
   return std::string(buf) + "\n";
 }
 
-/// The closest non-nested rival set of terms of a fit, its values and score gap, and the terms it makes ambiguous
-/// (noise_model.hpp FitResult::rival_terms, FitResult::ambiguous; `ambiguous` as they apply to what is reported).
+/// The closest non-nested rival set of terms of a fit, its values and gaps, every rival within kRivalGap, and the terms
+/// they make ambiguous (noise_model.hpp FitResult::rival_terms, FitResult::ambiguous; `ambiguous` as they apply to
+/// what is reported).
 void addRivalFields(YAML::Node* n, const FitResult& fit, const std::array<bool, kNumTerms>& ambiguous) {
   YAML::Node rival(YAML::NodeType::Sequence), amb(YAML::NodeType::Sequence);
   for (int t = 0; t < kNumTerms; ++t) {
@@ -402,8 +403,8 @@ YAML::Node buildReport(const ReportMeta& meta, const std::vector<AxisAnalysis>& 
     n["fit"] = errorNode(a.final_error.rms_log10, a.final_error.chi2_dof);
     addQuality(&n, a);
     {
-      // The term selection behind `coefficients` (answerFit): its closest non-nested rival and the answer's terms it
-      // makes ambiguous (also in methods.<method>.fit for the joint fit and pulse_times).
+      // The term selection behind `coefficients` (answerFit): its non-nested rivals and the answer's terms they make
+      // ambiguous (also in methods.<method>.fit for the joint fit and pulse_times).
       YAML::Node ts;
       addRivalFields(&ts, answerFit(a), answerAmbiguous(a));
       n["term_selection"] = ts;
