@@ -40,6 +40,20 @@ struct WaveletSplitOptions {
   /// Terms for the longer-tau fit of the denoised part (Q is handled separately; N, B, K, R by default).
   std::array<bool, kNumTerms> enabled{{true, true, true, true, true}};
   bool keep_signals = false;                       ///< keep denoised/removed samples in the result
+  /// Quantization that is not white (a sawtooth): Q^2 and N^2 are corrected for the estimator's bias and take their
+  /// sigmas from this many simulated records of the fitted model (parametric bootstrap); 0: the analytic allowance.
+  int sawtooth_replicas = 10;
+};
+
+/// The parametric bootstrap of Q^2 and N^2 for quantization that is not white (WaveletSplitOptions::sawtooth_replicas):
+/// records simulated from the fitted model (undithered pulse counter of weight Q sqrt(12) at the record's mean rate,
+/// N, and the denoised fit's B and K), each run through the same Q and N estimator.
+struct SawtoothBootstrap {
+  int replicas = 0;                 ///< 0: not run (white quantization, or turned off)
+  int replicas_white = 0;           ///< replicas whose quantization the whiteness check called white
+  double q2_bias = 0, n2_bias = 0;  ///< mean replica estimate minus the value simulated with [rad^2, rad^2/s]
+  double q2_sd = 0, n2_sd = 0;      ///< scatter of the replica estimates
+  double q2_raw = 0, n2_raw = 0;    ///< the record's own estimates before the bias correction
 };
 
 /// Wavelet variance of one DWT level (interior coefficients only) and the model's prediction.
@@ -86,6 +100,7 @@ struct WaveletSplitResult {
   /// with the white model Q^2 a_j (true), or not (false: e.g. a sawtooth; N then comes from the free fit).
   bool quantization_white = true;
   double quantization_level_share = 0; ///< gamma / Q^2 of the free fit (1 for white quantization noise)
+  SawtoothBootstrap sawtooth_bootstrap;  ///< bias and sigmas of Q^2, N^2 by simulation when not white
 
   // Every estimate, so the choice can be checked (all SI).
   double q_angle = 0, q_angle_sigma = 0;

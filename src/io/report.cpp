@@ -66,6 +66,23 @@ YAML::Node splitNode(const WaveletSplitResult& w) {
   n["split_frequency_hz"] = num(w.split_frequency_hz);
   n["kept_fraction"] = num(w.kept_fraction);
   n["quantization_white"] = w.quantization_white;
+  if (w.sawtooth_bootstrap.replicas > 0) {
+    // Quantization not white: Q^2, N^2 corrected by, and Q's sigma from, records simulated from the fitted model.
+    const SawtoothBootstrap& b = w.sawtooth_bootstrap;
+    YAML::Node bn;
+    bn["replicas"] = b.replicas;
+    bn["replicas_white"] = b.replicas_white;
+    bn["q_before_correction"] = num(std::sqrt(b.q2_raw));
+    bn["q2_bias"] = num(b.q2_bias);
+    bn["q2_sd"] = num(b.q2_sd);
+    bn["n_before_correction"] = num(std::sqrt(b.n2_raw));
+    bn["n2_bias"] = num(b.n2_bias);
+    bn["n2_sd"] = num(b.n2_sd);
+    bn["note"] = str("quantization is not white (a sawtooth): Q^2 and N^2 corrected by the split's bias on " +
+                     std::to_string(b.replicas) + " records simulated from the fitted model; Q's interval from their "
+                     "scatter (Student t, " + std::to_string(b.replicas - 1) + " dof)");
+    n["sawtooth_bootstrap"] = bn;
+  }
   n["removed_arw_share"] = num(w.removed_arw_share);
   n["removed_angle_std_rad"] = num(w.removed_angle.std);
   n["removed_angle_max_abs_rad"] = num(w.removed_angle.max_abs);

@@ -106,7 +106,10 @@ Output
                          Uncertainties: generalized least squares with the analytic covariance of the overlapping
                          Allan-variance estimates across tau (not a bootstrap); intervals and values conditional on
                          the term selection (selective inference); report.yaml gives each coefficient's 68 % and
-                         95 % intervals and each term's chi-squared evidence (docs/calibration.md)
+                         95 % intervals and each term's chi-squared evidence (docs/calibration.md). Wavelet
+                         split of a quantization that is not white (an undithered pulse counter's sawtooth): Q and
+                         N corrected for the split's bias, and Q's interval, by a parametric bootstrap (10 records
+                         simulated from the fitted model; report.yaml sawtooth_bootstrap; docs/wavelet_split.md)
   --kalibr-axis R        worst | mean: Kalibr's one value per term is the largest axis or the quadratic mean over
                          axes (default worst)
   --no-plot              do not run scripts/plot_allan.py (DIR/allan.png and DIR/allan.svg; needs /usr/bin/python3
