@@ -115,6 +115,10 @@ TEST(AngleInput, UnditheredRlgSplitFromAngle) {
   EXPECT_TRUE(a.has_check) << a.check.message;
   EXPECT_TRUE(a.quantized.quantized);
   EXPECT_TRUE(a.quantized.sawtooth);
+  // A detected sawtooth pulse count: the split's Q and N come from the sawtooth bootstrap, seeded the same for the
+  // rate and the angle input (their rates differ in the last bits only).
+  EXPECT_TRUE(a.split.sawtooth_bootstrap.applied) << a.split.sawtooth_bootstrap.note;
+  EXPECT_TRUE(r.split.sawtooth_bootstrap.applied) << r.split.sawtooth_bootstrap.note;
   EXPECT_EQ(a.method, "wavelet_split") << a.method_reason;
   EXPECT_EQ(a.method, r.method);
   for (int t : {kQuantization, kAngleRandomWalk})

@@ -108,6 +108,13 @@ TEST_F(AngleCli, AngleTopicGivesTheRatesCoefficients) {
       EXPECT_EQ(aa["method"].as<std::string>(), ra["method"].as<std::string>()) << mode << " " << ax;
       EXPECT_EQ(aa["samples"].as<int64_t>(), ra["samples"].as<int64_t>()) << mode << " " << ax;
       EXPECT_TRUE(aa["methods"]["wavelet_split"]) << mode << " " << ax;
+      // The pulse count is recognised from the angle too (an accumulated angle through the 4-byte storage is off the
+      // lattice by up to 2^-11 of the largest rate: analysis.cpp), so the split's sawtooth bootstrap runs as for the
+      // rate, with the same replicas.
+      ASSERT_TRUE(aa["quantized_output"]) << mode << " " << ax;
+      EXPECT_TRUE(aa["quantized_output"]["sawtooth"].as<bool>()) << mode << " " << ax;
+      EXPECT_TRUE(aa["methods"]["wavelet_split"]["sawtooth_bootstrap"]["applied"].as<bool>()) << mode << " " << ax;
+      EXPECT_TRUE(ra["methods"]["wavelet_split"]["sawtooth_bootstrap"]["applied"].as<bool>()) << ax;
       EXPECT_TRUE(aa["model_check"]) << mode << " " << ax;
       const YAML::Node c = aa["coefficients"], rc = ra["coefficients"];
       EXPECT_NEAR(c["quantization"]["value"].as<double>() / kQ, 1.0, 0.05) << mode << " " << ax;

@@ -35,14 +35,16 @@ struct QuantizedOutput {
 /// block-averaged periodogram of the counts whose value at the predicted pattern frequency (or its alias) is >= 20
 /// times the median of the bins 4..9 bins either side. Cost O(n): two passes over the samples, one more for the
 /// sawtooth test (15 Goertzel filters) when the first two gates pass. tau0 > 0; non-finite samples count as off the
-/// lattice.
-QuantizedOutput detectQuantizedOutput(const std::vector<double>& rate, double tau0);
+/// lattice. abs_tol [rad/s]: a further absolute tolerance on every value, for rates whose storage rounded them by more
+/// than 2^-24 of their own scale (differences of an accumulated angle held as 4-byte floats: AnalysisOptions, angle).
+QuantizedOutput detectQuantizedOutput(const std::vector<double>& rate, double tau0, double abs_tol = 0);
 
 /// A pulse count: quantized, with >= 90 % of the counts on the two levels around the mean count (a counter whose
 /// noise is below one count; the sawtooth test's own gate).
 bool isPulseCount(const QuantizedOutput& q);
 
 /// The same on the longest of several gap-free segments.
-QuantizedOutput detectQuantizedOutput(const std::vector<std::vector<double>>& segments, double tau0);
+QuantizedOutput detectQuantizedOutput(const std::vector<std::vector<double>>& segments, double tau0,
+                                      double abs_tol = 0);
 
 }  // namespace gyro_allan

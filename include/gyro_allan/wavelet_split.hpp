@@ -40,20 +40,23 @@ struct WaveletSplitOptions {
   /// Terms for the longer-tau fit of the denoised part (Q is handled separately; N, B, K, R by default).
   std::array<bool, kNumTerms> enabled{{true, true, true, true, true}};
   bool keep_signals = false;                       ///< keep denoised/removed samples in the result
-  /// Quantization that is not white (a sawtooth): Q^2 and N^2 are corrected for the estimator's bias and take their
-  /// sigmas from this many simulated records of the fitted model (parametric bootstrap); 0: the analytic allowance.
+  /// Quantization that is not white (a sawtooth): Q^2 and N^2 are corrected for the estimator's bias, and Q^2 takes
+  /// its sigma, from this many records simulated from the fitted model (parametric bootstrap); < 2: the analytic
+  /// allowance. The pipeline (analysis.hpp) sets 0 unless the output is a detected sawtooth pulse count.
   int sawtooth_replicas = 10;
 };
 
 /// The parametric bootstrap of Q^2 and N^2 for quantization that is not white (WaveletSplitOptions::sawtooth_replicas):
-/// records simulated from the fitted model (undithered pulse counter of weight Q sqrt(12) at the record's mean rate,
-/// N, and the denoised fit's B and K), each run through the same Q and N estimator.
+/// records simulated from the fitted model (an undithered pulse counter of weight Q sqrt(12) at the record's mean
+/// rate, and N), each run through the same Q and N estimator.
 struct SawtoothBootstrap {
-  int replicas = 0;                 ///< 0: not run (white quantization, or turned off)
+  int replicas = 0;                 ///< records simulated (0: not run: white quantization, or turned off)
+  bool applied = false;             ///< Q, N corrected and Q's sigma taken from the replicas; else `note` says why not
+  std::string note;
   int replicas_white = 0;           ///< replicas whose quantization the whiteness check called white
-  double q2_bias = 0, n2_bias = 0;  ///< mean replica estimate minus the value simulated with [rad^2, rad^2/s]
-  double q2_sd = 0, n2_sd = 0;      ///< scatter of the replica estimates
-  double q2_raw = 0, n2_raw = 0;    ///< the record's own estimates before the bias correction
+  double q2_bias = 0, n2_bias = 0;  ///< mean replica estimate minus the value simulated with [rad^2; rad^2/s]
+  double q2_sd = 0, n2_sd = 0;      ///< scatter of the replica estimates [rad^2; rad^2/s]
+  double q2_raw = 0, n2_raw = 0;    ///< the record's own estimates before the correction [rad^2; rad^2/s]
 };
 
 /// Wavelet variance of one DWT level (interior coefficients only) and the model's prediction.

@@ -85,10 +85,22 @@ void AxisStages::prepare() {
     if (!isDeviationName(d)) throw std::invalid_argument("unknown deviation '" + d + "'");
   const bool spikes_on = options.remove_spikes && options.input == InputKind::Rate;
   if (spikes_on) validateSpikeOptions(options.spikes);
+  double lattice_tol = 0;  // quantized-output detection: what storing an accumulated angle may have rounded
   if (options.input == InputKind::Angle) {
     // From here on the samples are rates (in place, no copy): every stage runs as for rate input.
     for (auto& s : segments_) angleToRate(&s, tau0, options.angle_increments);
     angle_points_ = !options.angle_increments;
+    if (angle_points_) {
+      // An accumulated angle read through the 4-byte sample storage (compact_series.hpp) is rounded by up to 2^-24 of
+      // its change since its block's first sample (4096 samples), so a difference of two of them by up to 2^-23 of
+      // 4096 tau0 max|rate|, over tau0: 2^-11 max|rate|. Off the pulse lattice by that much, an RLG's accumulated
+      // pulse count was not recognised as one (it is ~5e-4 of the quantum for a counter of one pulse per sample).
+      double max_abs = 0;
+      for (const auto& s : segments_)
+        for (double v : s)
+          if (std::isfinite(v)) max_abs = std::max(max_abs, std::fabs(v));
+      lattice_tol = std::ldexp(max_abs, -11);
+    }
   }
   a.axis = axis;
   a.rate_hz = 1.0 / tau0;
@@ -105,7 +117,7 @@ void AxisStages::prepare() {
   if (a.samples < 3) throw std::invalid_argument("axis " + axis + ": too few samples (" + std::to_string(a.samples) + ")");
   a.mean = static_cast<double>(sum / a.samples);
   a.duration_s = static_cast<double>(a.samples) * tau0;
-  a.quantized = detectQuantizedOutput(segments, tau0);  // before spike removal
+  a.quantized = detectQuantizedOutput(segments, tau0, lattice_tol);  // before spike removal
   if (spikes_on && isPulseCount(a.quantized)) {
     // A pulse counter whose noise is below one count (>= 90 % of samples on the two counts around the mean): each
     // pulse is an isolated jump of one count and the spike rule would take every one of them (2 % of an undithered
@@ -208,6 +220,10 @@ void AxisStages::split() {
   if (!options_.wavelet_split) return;
   WaveletSplitOptions so = options_.split;
   so.deviation = options_.deviation;
+  // The sawtooth bootstrap simulates an undithered pulse counter at a constant rate: only where the output was seen to
+  // be one (a pulse count whose counts repeat at the rate's line, quantized_output.hpp), never on a record whose
+  // quantization the split merely finds not white (e.g. a MEMS sensor's internal filter).
+  if (!(isPulseCount(a_.quantized) && a_.quantized.sawtooth)) so.sawtooth_replicas = 0;
   try {
     // One gap-free segment: the split's curve of the raw samples is the one just computed (saves an oadev pass).
     a_.split = waveletSplit(segments_[longest_], tau0_, so, a_.segments == 1 ? &raw_oadev_ : nullptr);

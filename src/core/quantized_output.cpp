@@ -77,7 +77,7 @@ struct Levels {
   std::vector<double> levels;  // one value per cluster, sorted
   double origin = 0;
 };
-Levels distinctLevels(const std::vector<double>& rate, const FiniteRange& fr) {
+Levels distinctLevels(const std::vector<double>& rate, const FiniteRange& fr, double abs_tol) {
   Levels lv;
   std::vector<double>& sub = lv.sub;
   const size_t stride = std::max<size_t>(1, rate.size() / kSubset);
@@ -86,7 +86,7 @@ Levels distinctLevels(const std::vector<double>& rate, const FiniteRange& fr) {
     if (std::isfinite(rate[i])) sub.push_back(rate[i]);
   std::sort(sub.begin(), sub.end());
   const double scale_sub = std::max(std::fabs(sub.front()), std::fabs(sub.back())) + (sub.back() - sub.front());
-  const double merge_tol = kStorageTol * scale_sub;
+  const double merge_tol = kStorageTol * scale_sub + abs_tol;
   std::vector<double>& levels = lv.levels;
   std::vector<size_t> members;  // samples of the subset in each level
   for (double v : sub) {
@@ -100,7 +100,7 @@ Levels distinctLevels(const std::vector<double>& rate, const FiniteRange& fr) {
   lv.origin = levels[static_cast<size_t>(std::max_element(members.begin(), members.end()) - members.begin())];
   if (levels.size() == 1) {
     // A counter that rarely counts (e.g. a pulse every few minutes): the other values from the whole record.
-    const double tol = kStorageTol * (2 * std::max(std::fabs(fr.lo), std::fabs(fr.hi)) + (fr.hi - fr.lo));
+    const double tol = kStorageTol * (2 * std::max(std::fabs(fr.lo), std::fabs(fr.hi)) + (fr.hi - fr.lo)) + abs_tol;
     for (double x : rate) {
       if (!std::isfinite(x) || std::fabs(x - lv.origin) <= 2 * tol) continue;
       bool seen = false;
@@ -230,15 +230,16 @@ void testSawtooth(const std::vector<double>& rate, double tau0, double mean, Qua
 
 }  // namespace
 
-QuantizedOutput detectQuantizedOutput(const std::vector<std::vector<double>>& segments, double tau0) {
+QuantizedOutput detectQuantizedOutput(const std::vector<std::vector<double>>& segments, double tau0, double abs_tol) {
   size_t longest = 0;
   for (size_t i = 1; i < segments.size(); ++i)
     if (segments[i].size() > segments[longest].size()) longest = i;
-  if (segments.empty()) return detectQuantizedOutput(std::vector<double>(), tau0);
-  return detectQuantizedOutput(segments[longest], tau0);
+  if (segments.empty()) return detectQuantizedOutput(std::vector<double>(), tau0, abs_tol);
+  return detectQuantizedOutput(segments[longest], tau0, abs_tol);
 }
 
-QuantizedOutput detectQuantizedOutput(const std::vector<double>& rate, double tau0) {
+QuantizedOutput detectQuantizedOutput(const std::vector<double>& rate, double tau0, double abs_tol) {
+  abs_tol = std::isfinite(abs_tol) ? std::max(0.0, abs_tol) : 0.0;
   QuantizedOutput out;
   const int64_t n = static_cast<int64_t>(rate.size());
   if (!(tau0 > 0) || n < kMinSamples) {
@@ -254,12 +255,13 @@ QuantizedOutput detectQuantizedOutput(const std::vector<double>& rate, double ta
     out.summary = "constant output: one value only";
     return out;
   }
-  const Levels lv = distinctLevels(rate, fr);
+  const Levels lv = distinctLevels(rate, fr, abs_tol);
   const std::vector<double>& levels = lv.levels;
   // The spread of the values: the subset's range (a rare outlier of the whole record does not widen it), or the whole
   // record's when the subset holds one value.
   const double range = lv.sub.back() > lv.sub.front() ? lv.sub.back() - lv.sub.front() : fr.hi - fr.lo;
-  const double gap_tol = 8 * kStorageTol * (std::max(std::fabs(levels.front()), std::fabs(levels.back())) + range);
+  const double gap_tol =
+      8 * kStorageTol * (std::max(std::fabs(levels.front()), std::fabs(levels.back())) + range) + 4 * abs_tol;
   // Approximate gcd of the gaps; stop as soon as it is too fine to matter (noise-like data gets there fast).
   const double q_floor = std::max(range / kMaxSpan, gap_tol / kMaxTolOfQuantum);
   double q = 0;
@@ -276,7 +278,7 @@ QuantizedOutput detectQuantizedOutput(const std::vector<double>& rate, double ta
   }
   q = refineQuantum(levels, lv.origin, q);
   double offset = lv.origin - q * std::nearbyint(lv.origin / q);
-  const double fixed_tol = kQuantumTol * q + kStorageTol * (std::fabs(lv.origin) + range);
+  const double fixed_tol = kQuantumTol * q + kStorageTol * (std::fabs(lv.origin) + range) + abs_tol;
   if (std::fabs(offset) <= fixed_tol) offset = 0;  // a plain counter: the lattice holds 0
   out.offset = offset;
   out.quantum_rate = q;

@@ -66,21 +66,26 @@ YAML::Node splitNode(const WaveletSplitResult& w) {
   n["split_frequency_hz"] = num(w.split_frequency_hz);
   n["kept_fraction"] = num(w.kept_fraction);
   n["quantization_white"] = w.quantization_white;
-  if (w.sawtooth_bootstrap.replicas > 0) {
+  if (w.sawtooth_bootstrap.replicas > 0 || !w.sawtooth_bootstrap.note.empty()) {
     // Quantization not white: Q^2, N^2 corrected by, and Q's sigma from, records simulated from the fitted model.
     const SawtoothBootstrap& b = w.sawtooth_bootstrap;
     YAML::Node bn;
     bn["replicas"] = b.replicas;
+    bn["applied"] = b.applied;
+    if (b.applied) {
+      bn["note"] = str("quantization is not white (a sawtooth): Q and N corrected by the split's bias on " +
+                       std::to_string(b.replicas) + " records simulated from the fitted model (pulse counter and N); "
+                       "Q's interval from their scatter (Student t, " + std::to_string(b.replicas - 1) + " dof)");
+    } else {
+      bn["note"] = str(b.note + "; Q and N keep the analytic allowance for a sawtooth");
+    }
     bn["replicas_white"] = b.replicas_white;
-    bn["q_before_correction"] = num(std::sqrt(b.q2_raw));
-    bn["q2_bias"] = num(b.q2_bias);
-    bn["q2_sd"] = num(b.q2_sd);
-    bn["n_before_correction"] = num(std::sqrt(b.n2_raw));
-    bn["n2_bias"] = num(b.n2_bias);
-    bn["n2_sd"] = num(b.n2_sd);
-    bn["note"] = str("quantization is not white (a sawtooth): Q^2 and N^2 corrected by the split's bias on " +
-                     std::to_string(b.replicas) + " records simulated from the fitted model; Q's interval from their "
-                     "scatter (Student t, " + std::to_string(b.replicas - 1) + " dof)");
+    bn["q_before_correction_rad"] = num(std::sqrt(std::max(0.0, b.q2_raw)));
+    bn["q2_bias_rad2"] = num(b.q2_bias);
+    bn["q2_sd_rad2"] = num(b.q2_sd);
+    bn["n_before_correction_rad_per_sqrt_s"] = num(std::sqrt(std::max(0.0, b.n2_raw)));
+    bn["n2_bias_rad2_per_s"] = num(b.n2_bias);
+    bn["n2_sd_rad2_per_s"] = num(b.n2_sd);
     n["sawtooth_bootstrap"] = bn;
   }
   n["removed_arw_share"] = num(w.removed_arw_share);

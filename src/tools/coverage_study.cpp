@@ -308,7 +308,8 @@ void usage() {
                "                      [--method auto|joint_fit|wavelet_split] [--tau-grid G] [--no-model-check]\n"
                "                      [--no-wavelet-split] [--sawtooth-replicas N] [--list] [--define NAME:key=value,...]...\n"
                "  --sawtooth-replicas: records simulated per non-white quantization axis for Q's and N's bias and Q's\n"
-               "  sigma (default 10; 0: the analytic allowance instead, the code before session 14)\n"
+               "  sigma, where the output is a detected sawtooth pulse count (default 10, at least 2; 0: the analytic\n"
+               "  allowance instead, the code before session 14)\n"
                "  --define: a class of your own, e.g. my_ramp:rate=200,hours=1,n=0.1,b=0.8,k=0.5,r=40\n"
                "  (keys rate hours q n b k r in dither; units as --list; unset terms 0; repeatable)\n"
                "  seeds 1-999: tuning set (1-30), 1001-: validation set (1001-1030). Default 1-20.\n"
@@ -348,7 +349,8 @@ int main(int argc, char** argv) {
       else if (a == "--no-wavelet-split") opt.wavelet_split = false;
       else if (a == "--sawtooth-replicas") {
         const double v = parseNumber(next(), "--sawtooth-replicas", true);
-        if (v != std::floor(v) || v > 1000) throw std::invalid_argument("--sawtooth-replicas: a whole number 0..1000");
+        if (v != std::floor(v) || v == 1 || v > 1000)
+          throw std::invalid_argument("--sawtooth-replicas: 0 (off) or a whole number 2..1000");
         opt.split.sawtooth_replicas = static_cast<int>(v);
       } else if (a == "--list") list = true;
       else if (a == "--define") defined.push_back(defineClass(next()));
