@@ -42,7 +42,7 @@ struct WaveletSplitOptions {
   bool keep_signals = false;                       ///< keep denoised/removed samples in the result
   /// Quantization that is not white (a sawtooth): Q^2 and N^2 are corrected for the estimator's bias, and Q^2 takes
   /// its sigma, from this many records simulated from the fitted model (parametric bootstrap); < 2: the analytic
-  /// allowance. The pipeline (analysis.hpp) sets 0 unless the output is a detected sawtooth pulse count.
+  /// allowance. The pipeline (analysis.hpp) sets 0 unless the output is a detected pulse count (quantized_output.hpp).
   int sawtooth_replicas = 10;
 };
 

@@ -560,13 +560,17 @@ struct ReplicaQn {
   double q2 = 0, n2 = 0;
   bool white = true;
 };
-ReplicaQn replicaQn(const std::vector<double>& rate, double tau0, int level, const WaveletSplitOptions& options,
+ReplicaQn replicaQn(std::vector<double> rate, double tau0, int level, const WaveletSplitOptions& options,
                     const Wavelet& w, const SplitAngleFactors& fac, double b2, double k2, double n2_start) {
   WaveletSplitResult s;
   s.level = level;
   s.split_frequency_hz = 1.0 / (tau0 * std::ldexp(2.0, level));
   const LevelData lv = levelVariances(rate, w, 8);
-  const WdenResult split = splitRecord(rate, options, &s);
+  const double mean_rate_abs =
+      std::fabs(static_cast<double>(std::accumulate(rate.begin(), rate.end(), 0.0L) / static_cast<long double>(rate.size())));
+  WdenResult split = splitRecord(rate, options, &s);
+  std::vector<double>().swap(rate);  // only the removed part is needed from here: one split's memory at most
+  std::vector<double>().swap(split.denoised);
   const AngleVariance av = removedAngleVariance(split.removed, tau0, w.dec_len(), &s);
   const int J = static_cast<int>(lv.var.size());
   const auto resp = waveletLevelResponses(w, std::max(1, J), tau0);
@@ -574,8 +578,6 @@ ReplicaQn replicaQn(const std::vector<double>& rate, double tau0, int level, con
   lm.b2 = b2;
   lm.k2 = k2;
   describeLevels(lv, J, tau0, &s);
-  const double mean_rate_abs =
-      std::fabs(static_cast<double>(std::accumulate(rate.begin(), rate.end(), 0.0L) / static_cast<long double>(rate.size())));
   const QnEstimate e = iterateQn(lm, fac, av, tau0, n2_start, mean_rate_abs, options, &s);
   return {e.q2, e.n2, s.quantization_white};
 }
@@ -629,8 +631,7 @@ void sawtoothBootstrap(double tau0, int64_t n, const WaveletSplitOptions& option
   b.replicas = R;
   try {
     for (int i = 0; i < R; ++i) {
-      const std::vector<double> sim = simulateAxis(ax, 1.0 / tau0, n, seed + static_cast<uint64_t>(i), 0);
-      const ReplicaQn q = replicaQn(sim, tau0, r->level, options, w, fac, 0.0, 0.0, n2_sim);
+      const ReplicaQn q = replicaQn(simulateAxis(ax, 1.0 / tau0, n, seed + static_cast<uint64_t>(i), 0), tau0, r->level, options, w, fac, 0.0, 0.0, n2_sim);
       q2s.push_back(q.q2);
       n2s.push_back(q.n2);
       b.replicas_white += q.white ? 1 : 0;

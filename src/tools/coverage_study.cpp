@@ -308,7 +308,7 @@ void usage() {
                "                      [--method auto|joint_fit|wavelet_split] [--tau-grid G] [--no-model-check]\n"
                "                      [--no-wavelet-split] [--sawtooth-replicas N] [--list] [--define NAME:key=value,...]...\n"
                "  --sawtooth-replicas: records simulated per non-white quantization axis for Q's and N's bias and Q's\n"
-               "  sigma, where the output is a detected sawtooth pulse count (default 10, at least 2; 0: the analytic\n"
+               "  sigma, where the output is a detected pulse count (default 10, at least 2; 0: the analytic\n"
                "  allowance instead, the code before session 14)\n"
                "  --define: a class of your own, e.g. my_ramp:rate=200,hours=1,n=0.1,b=0.8,k=0.5,r=40\n"
                "  (keys rate hours q n b k r in dither; units as --list; unset terms 0; repeatable)\n"
