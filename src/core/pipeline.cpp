@@ -315,7 +315,8 @@ struct PipelineRun {
         stages[a]->prepare();
       });
       deps.push_back({});
-      // Splits one at a time: the split holds the most memory (~3.5 records), so two never overlap.
+      // Splits one at a time: the split holds the most memory (~3.5 records), so two never overlap. (On a pulse count
+      // the split's sawtooth bootstrap runs its replicas after freeing its own parts, within the same.)
       tasks.push_back([&, a] { stages[a]->split(); });
       deps.push_back(last_split == SIZE_MAX ? std::vector<size_t>{prep} : std::vector<size_t>{prep, last_split});
       last_split = tasks.size() - 1;
