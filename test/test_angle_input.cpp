@@ -4,6 +4,7 @@
 
 #include "series_util.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <vector>
 
@@ -119,6 +120,9 @@ TEST(AngleInput, UnditheredRlgSplitFromAngle) {
   // rate and the angle input (their rates differ in the last bits only).
   EXPECT_TRUE(a.split.sawtooth_bootstrap.applied) << a.split.sawtooth_bootstrap.note;
   EXPECT_TRUE(r.split.sawtooth_bootstrap.applied) << r.split.sawtooth_bootstrap.note;
+  // ... and the axis's notes say so.
+  EXPECT_TRUE(std::any_of(a.notes.begin(), a.notes.end(),
+                          [](const std::string& n) { return n.find("parametric bootstrap") != std::string::npos; }));
   EXPECT_EQ(a.method, "wavelet_split") << a.method_reason;
   EXPECT_EQ(a.method, r.method);
   for (int t : {kQuantization, kAngleRandomWalk})

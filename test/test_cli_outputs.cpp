@@ -384,4 +384,10 @@ TEST_F(Outputs, CoverageStudyRunsADefinedClass) {
     EXPECT_EQ(gyro_allan_test::countLines(b.err), 1) << b.err;
     EXPECT_NE(b.err.find("--define"), std::string::npos) << b.err;
   }
+  for (const char* bad : {"1", "-2", "2.5", "x", "1001"}) {  // 0 (off) or 2..1000 replicas
+    const ToolRun b = run(kTools + "/coverage_study --sawtooth-replicas " + std::string(bad) + " --seeds 1");
+    EXPECT_EQ(b.code, 1) << bad;
+    EXPECT_EQ(gyro_allan_test::countLines(b.err), 1) << b.err;
+    EXPECT_NE(b.err.find("--sawtooth-replicas"), std::string::npos) << b.err;
+  }
 }

@@ -43,7 +43,10 @@ struct Coefficient {
 /// A coefficient from an estimate c of its square (its AVAR weight, e.g. Q^2) with standard deviation c_sigma:
 /// intervals c -+ z c_sigma mapped through the square root (two-sided when supported, [0, upper end] when not);
 /// supported when c > z_support c_sigma, else value 0 (used by the wavelet split, whose estimates are not GLS fits).
-Coefficient coefficientFromSquare(double c, double c_sigma, double z_support = 2.0);
+/// z is k68 for the 68 % interval and k95 for the 95 % one (normal by default; Student t's when c_sigma is itself
+/// estimated from few degrees of freedom).
+Coefficient coefficientFromSquare(double c, double c_sigma, double z_support = 2.0, double k68 = 1.0,
+                                  double k95 = 1.959963984540054);
 
 /// An additional Allan-variance term c * basis(tau), c >= 0 fitted jointly with the IEEE terms (used by the model
 /// check: sinusoid, Gauss-Markov, bias step...). The reported Coefficient is sqrt(c) with its sigma.

@@ -101,20 +101,20 @@ double noiseTermBasis(int term, double tau) {
   }
 }
 
-Coefficient coefficientFromSquare(double c, double c_sigma, double z_support) {
+Coefficient coefficientFromSquare(double c, double c_sigma, double z_support, double k68, double k95) {
   Coefficient co;
   const double sc = std::max(0.0, c_sigma);
   co.supported = c > 0 && c > z_support * sc;
   if (co.supported) {
     co.value = std::sqrt(c);
     co.sigma = 0.5 * sc / co.value;
-    co.lo68 = std::sqrt(std::max(0.0, c - sc));
-    co.lo95 = std::sqrt(std::max(0.0, c - 1.959963984540054 * sc));
+    co.lo68 = std::sqrt(std::max(0.0, c - k68 * sc));
+    co.lo95 = std::sqrt(std::max(0.0, c - k95 * sc));
   } else {
     co.sigma = std::sqrt(std::max(0.0, std::max(0.0, c) + sc));
   }
-  co.hi68 = std::sqrt(std::max(0.0, c + sc));
-  co.hi95 = std::sqrt(std::max(0.0, c + 1.959963984540054 * sc));
+  co.hi68 = std::sqrt(std::max(0.0, c + k68 * sc));
+  co.hi95 = std::sqrt(std::max(0.0, c + k95 * sc));
   return co;
 }
 

@@ -53,6 +53,11 @@ double power(const std::vector<double>& h, double nu) {
   return std::norm(s);
 }
 
+/// Mean of a series (long double sum).
+double meanOf(const std::vector<double>& v) {
+  return v.empty() ? 0.0 : static_cast<double>(std::accumulate(v.begin(), v.end(), 0.0L) / static_cast<long double>(v.size()));
+}
+
 /// Weighted sample variance helper: mean square of v[b..e).
 double meanSquare(const std::vector<double>& v, size_t b, size_t e) {
   long double s = 0;
@@ -554,29 +559,26 @@ void recordQn(const LevelModel& lm, const QnEstimate& e, const SplitAngleFactors
   r->removed_arw_share = av.var > 0 ? r->removed_arw_angle_var / av.var : 0.0;
 }
 
-// Q^2 and N^2 of one record by the split's own estimator (split at `level`, removed angle, level model with the given
-// B^2 and K^2 fixed), without the Allan curves: one replica of the sawtooth bootstrap.
+// Q^2 and N^2 of one record by the split's own estimator (split at `level`, removed angle, level model without B and
+// K), without the Allan curves: one replica of the sawtooth bootstrap.
 struct ReplicaQn {
   double q2 = 0, n2 = 0;
   bool white = true;
 };
 ReplicaQn replicaQn(std::vector<double> rate, double tau0, int level, const WaveletSplitOptions& options,
-                    const Wavelet& w, const SplitAngleFactors& fac, double b2, double k2, double n2_start) {
+                    const Wavelet& w, const SplitAngleFactors& fac, double n2_start) {
   WaveletSplitResult s;
   s.level = level;
   s.split_frequency_hz = 1.0 / (tau0 * std::ldexp(2.0, level));
   const LevelData lv = levelVariances(rate, w, 8);
-  const double mean_rate_abs =
-      std::fabs(static_cast<double>(std::accumulate(rate.begin(), rate.end(), 0.0L) / static_cast<long double>(rate.size())));
+  const double mean_rate_abs = std::fabs(meanOf(rate));
   WdenResult split = splitRecord(rate, options, &s);
   std::vector<double>().swap(rate);  // only the removed part is needed from here: one split's memory at most
   std::vector<double>().swap(split.denoised);
   const AngleVariance av = removedAngleVariance(split.removed, tau0, w.dec_len(), &s);
   const int J = static_cast<int>(lv.var.size());
   const auto resp = waveletLevelResponses(w, std::max(1, J), tau0);
-  LevelModel lm{resp, s.levels, J};
-  lm.b2 = b2;
-  lm.k2 = k2;
+  const LevelModel lm{resp, s.levels, J};
   describeLevels(lv, J, tau0, &s);
   const QnEstimate e = iterateQn(lm, fac, av, tau0, n2_start, mean_rate_abs, options, &s);
   return {e.q2, e.n2, s.quantization_white};
@@ -633,7 +635,8 @@ void sawtoothBootstrap(double tau0, int64_t n, const WaveletSplitOptions& option
   b.n2_raw = e->n2;
   try {
     for (int i = 0; i < R; ++i) {
-      const ReplicaQn q = replicaQn(simulateAxis(ax, 1.0 / tau0, n, seed + static_cast<uint64_t>(i), 0), tau0, r->level, options, w, fac, 0.0, 0.0, n2_sim);
+      const ReplicaQn q =
+          replicaQn(simulateAxis(ax, 1.0 / tau0, n, seed + static_cast<uint64_t>(i), 0), tau0, r->level, options, w, fac, n2_sim);
       q2s.push_back(q.q2);
       n2s.push_back(q.n2);
       b.replicas_white += q.white ? 1 : 0;
@@ -645,12 +648,10 @@ void sawtoothBootstrap(double tau0, int64_t n, const WaveletSplitOptions& option
     b.note = "not applied: out of memory simulating the replicas";
     return;
   }
-  for (int i = 0; i < R; ++i) {
-    if (!(q2s[static_cast<size_t>(i)] > 0 && n2s[static_cast<size_t>(i)] > 0 && std::isfinite(q2s[static_cast<size_t>(i)]) &&
-          std::isfinite(n2s[static_cast<size_t>(i)]))) {
-      b.note = "not applied: a replica gave no Q or no N";
-      return;
-    }
+  auto usable = [](double x) { return x > 0 && std::isfinite(x); };
+  if (!std::all_of(q2s.begin(), q2s.end(), usable) || !std::all_of(n2s.begin(), n2s.end(), usable)) {
+    b.note = "not applied: a replica gave no Q or no N";
+    return;
   }
   if (2 * b.replicas_white > R) {
     b.note = "not applied: most replicas' quantization was judged white, unlike the record's";
@@ -686,18 +687,10 @@ void sawtoothBootstrap(double tau0, int64_t n, const WaveletSplitOptions& option
 // A coefficient from its square and the sigma of the square; with sigma_dof > 0 the sigma is itself an estimate and
 // the intervals take Student t quantiles of that many degrees of freedom instead of the normal 1 and 1.96.
 Coefficient fromSquare(double c, double c_sigma, double sigma_dof) {
-  Coefficient co = coefficientFromSquare(c, c_sigma);
-  if (!(sigma_dof > 0)) return co;
+  if (!(sigma_dof > 0)) return coefficientFromSquare(c, c_sigma);
   const boost::math::students_t t(sigma_dof);
-  const double k68 = boost::math::quantile(t, 0.841344746068543), k95 = boost::math::quantile(t, 0.975);
-  const double sc = std::max(0.0, c_sigma);
-  if (co.supported) {
-    co.lo68 = std::sqrt(std::max(0.0, c - k68 * sc));
-    co.lo95 = std::sqrt(std::max(0.0, c - k95 * sc));
-  }
-  co.hi68 = std::sqrt(std::max(0.0, c + k68 * sc));
-  co.hi95 = std::sqrt(std::max(0.0, c + k95 * sc));
-  return co;
+  return coefficientFromSquare(c, c_sigma, 2.0, boost::math::quantile(t, 0.841344746068543),
+                               boost::math::quantile(t, 0.975));
 }
 
 void reportCoefficients(const WaveletSplitOptions& options, const QnEstimate& e, WaveletSplitResult* r) {
@@ -796,8 +789,7 @@ WaveletSplitResult waveletSplit(const std::vector<double>& rate, double tau0, co
   double n2 = r.n_allan * r.n_allan;
   if (!(n2 > 0) && J > 0) n2 = lv.var[static_cast<size_t>(J - 1)] * tau0;  // start from the coarsest level
   describeLevels(lv, J, tau0, &r);
-  const double mean_rate =
-      static_cast<double>(std::accumulate(rate.begin(), rate.end(), 0.0L) / static_cast<long double>(rate.size()));
+  const double mean_rate = meanOf(rate);
   const double mean_rate_abs = std::fabs(mean_rate);
   QnEstimate qn = iterateQn(lm, fac, av, tau0, n2, mean_rate_abs, options, &r);
   if (!options.keep_signals) {  // the parts are not needed any more: the bootstrap's replicas get their memory
