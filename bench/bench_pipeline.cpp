@@ -9,7 +9,9 @@
 #include "gyro_allan/allan.hpp"
 #include "gyro_allan/analysis.hpp"
 #include "gyro_allan/model_check.hpp"
+#include "gyro_allan/rest.hpp"
 #include "gyro_allan/simulate.hpp"
+#include "gyro_allan/stats.hpp"
 #include "gyro_allan/spectral.hpp"
 #include "gyro_allan/timing.hpp"
 #include "gyro_allan/wavelet.hpp"
@@ -136,6 +138,43 @@ void BM_SanitizeCompact3Axis(benchmark::State& st) {
   }
 }
 BENCHMARK(BM_SanitizeCompact3Axis)->Unit(benchmark::kMillisecond);
+
+/// Exact medians by selection (stats.hpp) of a noise sample of range(0) values: the rest detector takes three per
+/// 1 s block and channel (400 values), spike removal, the sampling check and the wavelet threshold whole records.
+void BM_Median(benchmark::State& st) {
+  const auto& x = axis(kHour);
+  const size_t n = static_cast<size_t>(st.range(0));
+  const size_t blocks = x.size() / n;  // every block of the record once per iteration (copy included)
+  std::vector<double> w;
+  for (auto _ : st)
+    for (size_t b = 0; b < blocks; ++b) {
+      w.assign(x.begin() + static_cast<std::ptrdiff_t>(b * n), x.begin() + static_cast<std::ptrdiff_t>((b + 1) * n));
+      benchmark::DoNotOptimize(medianInPlace(w));
+    }
+  st.SetItemsProcessed(st.iterations() * static_cast<int64_t>(blocks));
+}
+BENCHMARK(BM_Median)->Arg(400)->Arg(kHour)->Unit(benchmark::kMillisecond);
+
+/// The rest detector on three gyro and three accelerometer axes, 1 h at 400 Hz (what analyze_bag runs between
+/// sanitation and the axes).
+void BM_DetectRest(benchmark::State& st) {
+  const auto& g = axis(kHour);
+  std::vector<std::vector<double>> acc(3);
+  for (int c = 0; c < 3; ++c) {
+    AxisNoise a;
+    a.angle_random_walk = 1e-3;
+    a.bias_instability = 1e-4;
+    a.quantization = 1e-3;
+    acc[static_cast<size_t>(c)] = simulateAxis(a, kRate, kHour, 21 + static_cast<uint64_t>(c));
+    if (c == 2)
+      for (double& v : acc[2]) v += 9.81;
+  }
+  for (auto _ : st) {
+    const RestResult r = detectRestSingle({&g, &g, &g}, {&acc[0], &acc[1], &acc[2]}, kTau0);
+    benchmark::DoNotOptimize(r.blocks);
+  }
+}
+BENCHMARK(BM_DetectRest)->Unit(benchmark::kMillisecond);
 
 /// One axis of analyze_bag's default pipeline, stage by stage (1 h at 400 Hz).
 void BM_AxisStages(benchmark::State& st) {

@@ -6,7 +6,7 @@
 namespace gyro_allan {
 
 /// Median of v: the middle value for odd n, the mean of the two middle values for even n; NaN when v is empty.
-/// Reorders v (std::nth_element, O(n)): pass a scratch copy when the order matters.
+/// Reorders v (a selection in O(n), leaving v as std::nth_element would): pass a scratch copy when the order matters.
 double medianInPlace(std::vector<double>& v);
 
 /// median of a copy of v (medianInPlace).
@@ -16,7 +16,7 @@ inline double median(std::vector<double> v) { return medianInPlace(v); }
 /// the two middle values for even n; NaN when v is empty. Always one of the samples (a sample interval, a PSD bin).
 /// It is what the stamp-period, value-anomaly, step-location and quantization-line estimates were tuned with; for
 /// their large n it differs from median() by less than the spacing of neighbouring samples, but it is kept so that
-/// their results do not move. Reorders v (std::nth_element, O(n)).
+/// their results do not move. Reorders v as medianInPlace does.
 double upperMedianInPlace(std::vector<double>& v);
 
 /// upperMedian of a copy of v (upperMedianInPlace).
