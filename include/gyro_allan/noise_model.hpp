@@ -79,6 +79,11 @@ struct FitOptions {
   double rms_min_edf = 30.0;   ///< points counted in rms_log10 need at least this EDF
   double significance = 1.0;   ///< an IEEE term is kept only if its c = coef^2 is >= this many sigma above zero
   bool decorrelate = true;     ///< scale weights by the grid density (one octave ~ one independent AVAR estimate)
+  /// Covariance weighting: false fits the values, statistics and model curve only, without the selective intervals
+  /// (selective.hpp; a third of the model check's time): for fits whose only use is their values (the first pass of
+  /// an EDF-reweighted fit, the model check's trial fits, whose winner is fitted again with them). Then
+  /// FitResult::intervals is false, and a dropped term's interval ends and sigma and terms_corrected's values are NaN.
+  bool intervals = true;
 };
 
 struct FitResult {
@@ -126,6 +131,7 @@ struct FitResult {
   /// term of the rival's that the search did not select gets at least the rival's upper ends. A rival must keep N
   /// when the selection has it.
   std::array<bool, kNumTerms> ambiguous{{false, false, false, false, false}};
+  bool intervals = true;  ///< false: fitted with FitOptions::intervals off (values only)
 };
 
 /// A non-nested rival set of terms within this of the selection makes the terms the two disagree on ambiguous

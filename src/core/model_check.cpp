@@ -194,7 +194,9 @@ Model fitModel(const DeviationCurve& curve, const Model& previous, const FitOpti
     m.extra = extra;
     m.info = info;
     m.n_nonlinear = n_nonlinear;
-    FitResult f = fitNoiseModel(start, o, extra);
+    FitOptions values_only = o;  // the first pass gives only the weights of the second
+    values_only.intervals = false;
+    FitResult f = fitNoiseModel(start, values_only, extra);
     if (!f.ok) return m;
     m.weighted = weightFor(curve, f, extra, info);
     m.fit = fitNoiseModel(m.weighted, o, extra);
@@ -365,7 +367,9 @@ double rmsLog10(const DeviationCurve& curve, const std::vector<double>& model, c
 }  // namespace
 
 FitResult fitWithModelEdf(DeviationCurve* curve, const FitOptions& options, double confidence) {
-  FitResult f = fitNoiseModel(*curve, options);
+  FitOptions values_only = options;  // the first pass gives only the EDF of the second
+  values_only.intervals = false;
+  FitResult f = fitNoiseModel(*curve, values_only);
   if (!f.ok) return f;
   *curve = withModelEdf(*curve, f, confidence);
   return fitNoiseModel(*curve, options);
@@ -1072,7 +1076,10 @@ std::vector<Candidate> collectCandidates(const CheckInput& in) {
 }
 
 // The current model with candidate c's term at nonlinear parameter p added, refitted.
-Trial evaluateCandidate(const CheckInput& in, const Model& current, const Candidate& c, double p) {
+// intervals false: the fits without their selective intervals (FitOptions::intervals), for trials compared by BIC
+// only; the same values, BIC and statistics.
+Trial evaluateCandidate(const CheckInput& in, const Model& current, const Candidate& c, double p,
+                        bool intervals = true) {
   Trial t;
   t.p = p;
   t.term = c.make(p);
@@ -1085,7 +1092,9 @@ Trial evaluateCandidate(const CheckInput& in, const Model& current, const Candid
   ti.localized = c.localized ? in.T : 0.0;
   info.push_back(ti);
   // Only a deterministic effect may stand in for K and R (a stochastic one would just trade places with them).
-  t.model = fitModel(in.curve, current, in.opts.fit, ex, info, current.n_nonlinear + c.n_nonlinear,
+  FitOptions fo = in.opts.fit;
+  fo.intervals = intervals;
+  t.model = fitModel(in.curve, current, fo, ex, info, current.n_nonlinear + c.n_nonlinear,
                      c.nature == Nature::Deterministic);
   return t;
 }
@@ -1099,7 +1108,7 @@ Trial searchCandidate(const CheckInput& in, const Model& current, const Candidat
   int bi = -1;
   for (int g = 0; g < ng; ++g) {
     grid[g] = c.p_lo * std::pow(c.p_hi / c.p_lo, static_cast<double>(g) / (ng - 1));
-    trials[g] = evaluateCandidate(in, current, c, grid[g]);
+    trials[g] = evaluateCandidate(in, current, c, grid[g], false);
     if (trials[g].model.ok && (bi < 0 || trials[g].model.bic < trials[bi].model.bic)) bi = g;
   }
   if (bi < 0) return Trial{};
@@ -1107,20 +1116,21 @@ Trial searchCandidate(const CheckInput& in, const Model& current, const Candidat
   Trial bt = trials[bi];
   const double gr = 0.5 * (std::sqrt(5.0) - 1.0);
   double x1 = b - gr * (b - a), x2 = a + gr * (b - a);
-  Trial t1 = evaluateCandidate(in, current, c, std::exp(x1)), t2 = evaluateCandidate(in, current, c, std::exp(x2));
+  Trial t1 = evaluateCandidate(in, current, c, std::exp(x1), false);
+  Trial t2 = evaluateCandidate(in, current, c, std::exp(x2), false);
   for (int it = 0; it < 12; ++it) {
     if (t1.model.bic < t2.model.bic) {
       b = x2;
       x2 = x1;
       t2 = t1;
       x1 = b - gr * (b - a);
-      t1 = evaluateCandidate(in, current, c, std::exp(x1));
+      t1 = evaluateCandidate(in, current, c, std::exp(x1), false);
     } else {
       a = x1;
       x1 = x2;
       t1 = t2;
       x2 = a + gr * (b - a);
-      t2 = evaluateCandidate(in, current, c, std::exp(x2));
+      t2 = evaluateCandidate(in, current, c, std::exp(x2), false);
     }
   }
   const Trial& tb = t1.model.bic < t2.model.bic ? t1 : t2;
@@ -1128,12 +1138,16 @@ Trial searchCandidate(const CheckInput& in, const Model& current, const Candidat
   // Sigma of the parameter from the curvature of -2 ln L (= BIC up to a constant) in ln p, inflated by the
   // reduced chi2 when it exceeds 1.
   const double h = 0.05;
-  const Trial tm = evaluateCandidate(in, current, c, bt.p * std::exp(-h));
-  const Trial tp = evaluateCandidate(in, current, c, bt.p * std::exp(h));
+  const Trial tm = evaluateCandidate(in, current, c, bt.p * std::exp(-h), false);
+  const Trial tp = evaluateCandidate(in, current, c, bt.p * std::exp(h), false);
   const double curv = (tm.model.bic + tp.model.bic - 2 * bt.model.bic) / (h * h);
   const double infl = std::max(1.0, bt.model.fit.chi2_dof);
-  bt.p_sigma = (curv > 0 && tm.model.ok && tp.model.ok) ? bt.p * std::sqrt(2.0 / curv * infl) : bt.p;
-  return bt;
+  const double p_sigma = (curv > 0 && tm.model.ok && tp.model.ok) ? bt.p * std::sqrt(2.0 / curv * infl) : bt.p;
+  // The trials above were fitted without their selective intervals (their BIC is the same); the best one again with
+  // them, at the same parameter: the same fit as if every trial had had them.
+  Trial full = evaluateCandidate(in, current, c, bt.p);
+  full.p_sigma = p_sigma;
+  return full;
 }
 
 // Significance of extra term e of a fit: sqrt(c) over its sigma.

@@ -446,6 +446,12 @@ struct GlsFit {
       ti.event.threshold = std::sqrt(penalty(col)) * sd0;
       if (selected) ti.event.threshold = std::min(ti.event.threshold, x);
     }
+    if (!options.intervals) {  // values only (FitOptions::intervals): sd0 still gives a selected term its sigma
+      constexpr double nan = std::numeric_limits<double>::quiet_NaN();
+      ti.est.median = ti.est.lo68 = ti.est.hi68 = ti.est.lo95 = ti.est.hi95 = nan;
+      inf[static_cast<size_t>(col)] = ti;
+      return;
+    }
     const double m1 = std::max({x, sd0, 1e-300});
     const double mu[3] = {0.0, m1, m1 + 4.0 * std::max(sd0, 0.25 * m1)};
     double var[3];
@@ -615,6 +621,7 @@ FitResult fitNoiseModelGls(const DeviationCurve& curve, const FitOptions& option
   }
   g.statistics(w);
   g.inferAll(w);
+  g.r.intervals = options.intervals;
   g.coefficients();
   g.ambiguity(w);
   g.modelCurve();
