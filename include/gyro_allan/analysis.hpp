@@ -100,6 +100,9 @@ const FitResult& answerFit(const AxisAnalysis& a);
 /// for the wavelet split only B, K and R, which come from that fit (Q and N come from the split's own estimators),
 /// for pulse_times all but Q (the lattice's pulse weight).
 std::array<bool, kNumTerms> answerAmbiguous(const AxisAnalysis& a);
+/// The terms of the answer whose interval a close larger set of terms widened (FitResult::widened, kSupersetGap);
+/// none for the wavelet split, whose B, K and R keep their fit's own intervals unless ambiguous.
+std::array<bool, kNumTerms> answerWidened(const AxisAnalysis& a);
 
 /// Rate samples [rad/s] of one gap-free segment of angle samples, in place: an accumulated angle theta (n points)
 /// gives the n - 1 rates (theta[k+1] - theta[k]) / tau0; increments delta (n) give the n rates delta[k] / tau0.

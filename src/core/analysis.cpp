@@ -493,6 +493,28 @@ AxisAnalysis AxisStages::finish() {
       a.notes.push_back(buf);
     }
   }
+  {
+    // Intervals widened by a close larger set of terms (noise_model.hpp kSupersetGap): say which and why.
+    const FitResult& f = answerFit(a);
+    const std::array<bool, kNumTerms> widened = answerWidened(a);
+    std::string wid, sets;
+    for (int t = 0; t < kNumTerms; ++t)
+      if (widened[static_cast<size_t>(t)]) wid += std::string(wid.empty() ? "" : ", ") + noiseTermKey(t);
+    for (int terms : f.close_superset_terms) {
+      std::string s;
+      for (int t = 0; t < kNumTerms; ++t)
+        if ((terms >> t) & 1) s += std::string(s.empty() ? "" : "+") + noiseTermKey(t);
+      sets += std::string(sets.empty() ? "" : "; ") + s;
+    }
+    if (!wid.empty()) {
+      char buf[800];
+      std::snprintf(buf, sizeof buf,
+                    "interval widened (%s): a larger set of terms tells the record about as well, within %g in AIC "
+                    "(%s); the interval reaches that fit's value, which a term left out would otherwise push",
+                    wid.c_str(), kSupersetGap, sets.c_str());
+      a.notes.push_back(buf);
+    }
+  }
   if (a.has_gmwm) gmwmCompare(&a.gmwm, a.oadev, a.fit.model_var, a.final_model_var);  // closed loop vs IEEE fits
   a.quality = assessQuality(a);
   if (unboundIntervalsIfBad(a.quality, &a.coefficients))
@@ -505,6 +527,11 @@ const FitResult& answerFit(const AxisAnalysis& a) {
   if (a.method == "pulse_times") return a.pulse_fit;
   if (a.has_check && !a.check.effects.empty()) return a.check.fit_after;
   return a.fit;
+}
+
+std::array<bool, kNumTerms> answerWidened(const AxisAnalysis& a) {
+  if (a.method == "wavelet_split") return {};
+  return answerFit(a).widened;
 }
 
 std::array<bool, kNumTerms> answerAmbiguous(const AxisAnalysis& a) {

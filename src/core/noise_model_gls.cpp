@@ -207,6 +207,7 @@ struct GlsFit {
     Eigen::VectorXd weights;
   };
   std::vector<CloseRival> close_rivals;      // every rival within kRivalGap (selectTerms), the closest first
+  std::vector<CloseRival> close_supersets;   // every larger set of terms within kSupersetGap on AIC (selectTerms)
   std::vector<int> pos;                      // the selected columns
   struct TermInference {
     bool corrected_out = false;
@@ -319,6 +320,12 @@ struct GlsFit {
     for (size_t i = 0; i < scored.size(); ++i) {
       const int terms = scored[i].terms;
       const double gap = std::min(scored[i].score - best_score, scored[i].aic - sel_aic);
+      if (terms != sel && (terms & sel) == sel) {  // a larger set of terms: the selection and some it left out
+        const double aic_gap = scored[i].aic - sel_aic;
+        const bool seen = std::any_of(close_supersets.begin(), close_supersets.end(),
+                                      [&](const CloseRival& x) { return x.terms == terms; });
+        if (aic_gap < kSupersetGap && !seen) close_supersets.push_back({aic_gap, terms, i, fits[i]});
+      }
       if ((terms & sel) == terms || (terms & sel) == sel) continue;
       // A set without the white-noise floor N is no rival to one with it: every gyro has N, and taking N away would
       // leave an answer with no N (a bad verdict, unbounded intervals). None of the session-12 study records had one
@@ -340,6 +347,9 @@ struct GlsFit {
       r.close_rival_terms.push_back(cr.terms);
       cr.weights = fits[cr.index];
     }
+    std::stable_sort(close_supersets.begin(), close_supersets.end(),
+                     [](const auto& a, const auto& b) { return a.gap < b.gap; });
+    for (const auto& cs : close_supersets) r.close_superset_terms.push_back(cs.terms);
   }
 
   // Terms a rival within kRivalGap tells otherwise, for every such rival (FitResult::ambiguous):
@@ -352,6 +362,37 @@ struct GlsFit {
     for (int col = 0; col < ncol && rival_c.size() == ncol; ++col)
       if (rival_c[col] > 0 && P.term[static_cast<size_t>(col)] < kNumTerms)
         r.rival_values[static_cast<size_t>(P.term[static_cast<size_t>(col)])] = std::sqrt(rival_c[col]);
+    // Larger sets of terms within kSupersetGap (noise_model.hpp): a selected term's interval reaches the larger
+    // set's plain interval of it, on the side of that set's value. Before the rivals, whose bounds replace intervals.
+    for (const CloseRival& cs : close_supersets) {
+      std::vector<int> cols;
+      for (int col = 0; col < ncol; ++col)
+        if (cs.weights[col] > 0) cols.push_back(col);
+      Eigen::VectorXd est;
+      Eigen::MatrixXd cov;
+      solveFree(w, cols, &est, &cov);
+      for (size_t k = 0; k < cols.size(); ++k) {
+        const int col = cols[k], t = P.term[static_cast<size_t>(col)];
+        // Bias instability only: the term the study found absorbing a left-out rate random walk. N's interval comes
+        // from the selected columns on purpose (Q's column is nearly collinear with N's; inferAll), and widening a
+        // selected K or R was not studied.
+        if (t != kBiasInstability || !(c[col] > 0)) continue;
+        Coefficient& cc = r.terms_corrected[static_cast<size_t>(t)];
+        if (!cc.supported) continue;  // dropped by its selection correction: its interval is a bound already
+        const int kk = static_cast<int>(k);
+        const double x = est[kk], sd = std::sqrt(std::max(0.0, cov(kk, kk) * r.uncertainty_inflation));
+        const double lo68 = cc.lo68, lo95 = cc.lo95, hi68 = cc.hi68, hi95 = cc.hi95;
+        if (x < c[col]) {
+          cc.lo68 = std::min(cc.lo68, std::sqrt(std::max(0.0, x - sd)));
+          cc.lo95 = std::min(cc.lo95, std::sqrt(std::max(0.0, x - 1.96 * sd)));
+        } else {
+          cc.hi68 = std::max(cc.hi68, std::sqrt(std::max(0.0, x + sd)));
+          cc.hi95 = std::max(cc.hi95, std::sqrt(std::max(0.0, x + 1.96 * sd)));
+        }
+        if (cc.lo68 != lo68 || cc.lo95 != lo95 || cc.hi68 != hi68 || cc.hi95 != hi95)
+          r.widened[static_cast<size_t>(t)] = true;
+      }
+    }
     for (const CloseRival& cr : close_rivals) {
       const Eigen::VectorXd& rc = cr.weights;
       std::vector<int> rcols;  // this rival's columns (extra terms included)

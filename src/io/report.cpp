@@ -205,6 +205,22 @@ void addRivalFields(YAML::Node* n, const FitResult& fit, const std::array<bool, 
   (*n)["ambiguous_terms"] = amb;
 }
 
+/// The larger sets of terms within kSupersetGap of a fit's selection and the terms whose interval they widened
+/// (noise_model.hpp FitResult::close_superset_terms, FitResult::widened; `widened` as it applies to what is reported).
+void addSupersetFields(YAML::Node* n, const FitResult& fit, const std::array<bool, kNumTerms>& widened) {
+  YAML::Node sets(YAML::NodeType::Sequence), wid(YAML::NodeType::Sequence);
+  for (int terms : fit.close_superset_terms) {
+    std::string s;
+    for (int t = 0; t < kNumTerms; ++t)
+      if ((terms >> t) & 1) s += std::string(s.empty() ? "" : "+") + noiseTermKey(t);
+    sets.push_back(str(s));
+  }
+  for (int t = 0; t < kNumTerms; ++t)
+    if (widened[static_cast<size_t>(t)]) wid.push_back(str(noiseTermKey(t)));
+  (*n)["close_supersets"] = sets;
+  (*n)["widened_terms"] = wid;
+}
+
 YAML::Node fitNode(const FitResult& fit) {
   YAML::Node n;
   n["ok"] = fit.ok;
@@ -226,6 +242,7 @@ YAML::Node fitNode(const FitResult& fit) {
       if (fit.dropped_by_correction[static_cast<size_t>(t)]) dropped.push_back(str(noiseTermKey(t)));
     n["dropped_by_selection_correction"] = dropped;
     addRivalFields(&n, fit, fit.ambiguous);
+    addSupersetFields(&n, fit, fit.widened);
   } else {
     n["weighting"] = str("edf");
   }
@@ -429,6 +446,7 @@ YAML::Node buildReport(const ReportMeta& meta, const std::vector<AxisAnalysis>& 
       // ambiguous (also in methods.<method>.fit for the joint fit and pulse_times).
       YAML::Node ts;
       addRivalFields(&ts, answerFit(a), answerAmbiguous(a));
+      addSupersetFields(&ts, answerFit(a), answerWidened(a));
       n["term_selection"] = ts;
     }
     if (a.quantized.quantized) n["quantized_output"] = quantizedNode(a.quantized);
