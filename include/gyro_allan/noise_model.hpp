@@ -82,7 +82,8 @@ struct FitOptions {
   /// Covariance weighting: false fits the values, statistics and model curve only, without the selective intervals
   /// (selective.hpp; a third of the model check's time): for fits whose only use is their values (the first pass of
   /// an EDF-reweighted fit, the model check's trial fits, whose winner is fitted again with them). Then
-  /// FitResult::intervals is false, and a dropped term's interval ends and sigma and terms_corrected's values are NaN.
+  /// FitResult::intervals is false, every interval end, a dropped term's sigma and terms_corrected's values are NaN,
+  /// and no interval is widened (kSupersetGap).
   bool intervals = true;
 };
 

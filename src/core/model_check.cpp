@@ -1093,7 +1093,7 @@ Trial evaluateCandidate(const CheckInput& in, const Model& current, const Candid
   info.push_back(ti);
   // Only a deterministic effect may stand in for K and R (a stochastic one would just trade places with them).
   FitOptions fo = in.opts.fit;
-  fo.intervals = intervals;
+  fo.intervals = fo.intervals && intervals;
   t.model = fitModel(in.curve, current, fo, ex, info, current.n_nonlinear + c.n_nonlinear,
                      c.nature == Nature::Deterministic);
   return t;

@@ -362,37 +362,6 @@ struct GlsFit {
     for (int col = 0; col < ncol && rival_c.size() == ncol; ++col)
       if (rival_c[col] > 0 && P.term[static_cast<size_t>(col)] < kNumTerms)
         r.rival_values[static_cast<size_t>(P.term[static_cast<size_t>(col)])] = std::sqrt(rival_c[col]);
-    // Larger sets of terms within kSupersetGap (noise_model.hpp): a selected term's interval reaches the larger
-    // set's plain interval of it, on the side of that set's value. Before the rivals, whose bounds replace intervals.
-    for (const CloseRival& cs : close_supersets) {
-      std::vector<int> cols;
-      for (int col = 0; col < ncol; ++col)
-        if (cs.weights[col] > 0) cols.push_back(col);
-      Eigen::VectorXd est;
-      Eigen::MatrixXd cov;
-      solveFree(w, cols, &est, &cov);
-      for (size_t k = 0; k < cols.size(); ++k) {
-        const int col = cols[k], t = P.term[static_cast<size_t>(col)];
-        // Bias instability only: the term the study found absorbing a left-out rate random walk. N's interval comes
-        // from the selected columns on purpose (Q's column is nearly collinear with N's; inferAll), and widening a
-        // selected K or R was not studied.
-        if (t != kBiasInstability || !(c[col] > 0)) continue;
-        Coefficient& cc = r.terms_corrected[static_cast<size_t>(t)];
-        if (!cc.supported) continue;  // dropped by its selection correction: its interval is a bound already
-        const int kk = static_cast<int>(k);
-        const double x = est[kk], sd = std::sqrt(std::max(0.0, cov(kk, kk) * r.uncertainty_inflation));
-        const double lo68 = cc.lo68, lo95 = cc.lo95, hi68 = cc.hi68, hi95 = cc.hi95;
-        if (x < c[col]) {
-          cc.lo68 = std::min(cc.lo68, std::sqrt(std::max(0.0, x - sd)));
-          cc.lo95 = std::min(cc.lo95, std::sqrt(std::max(0.0, x - 1.96 * sd)));
-        } else {
-          cc.hi68 = std::max(cc.hi68, std::sqrt(std::max(0.0, x + sd)));
-          cc.hi95 = std::max(cc.hi95, std::sqrt(std::max(0.0, x + 1.96 * sd)));
-        }
-        if (cc.lo68 != lo68 || cc.lo95 != lo95 || cc.hi68 != hi68 || cc.hi95 != hi95)
-          r.widened[static_cast<size_t>(t)] = true;
-      }
-    }
     for (const CloseRival& cr : close_rivals) {
       const Eigen::VectorXd& rc = cr.weights;
       std::vector<int> rcols;  // this rival's columns (extra terms included)
@@ -419,6 +388,39 @@ struct GlsFit {
           cc.sigma = cc.hi68;
           r.ambiguous[static_cast<size_t>(t)] = true;
         }
+      }
+    }
+    // Larger sets of terms within kSupersetGap (noise_model.hpp): a selected term's interval reaches the larger
+    // set's plain interval of it, on the side of that set's value. After the rivals: a B a close rival does without
+    // is a bound already (unsupported), and keeps the rival rule's interval. Not in a values-only fit (no intervals).
+    if (!options.intervals) return;
+    for (const CloseRival& cs : close_supersets) {
+      std::vector<int> cols;
+      for (int col = 0; col < ncol; ++col)
+        if (cs.weights[col] > 0) cols.push_back(col);
+      Eigen::VectorXd est;
+      Eigen::MatrixXd cov;
+      solveFree(w, cols, &est, &cov);
+      for (size_t k = 0; k < cols.size(); ++k) {
+        const int col = cols[k], t = P.term[static_cast<size_t>(col)];
+        // Bias instability only: the term the study found absorbing a left-out rate random walk. N's interval comes
+        // from the selected columns on purpose (Q's column is nearly collinear with N's; inferAll), and widening a
+        // selected K or R was not studied.
+        if (t != kBiasInstability || !(c[col] > 0)) continue;
+        Coefficient& cc = r.terms_corrected[static_cast<size_t>(t)];
+        if (!cc.supported) continue;  // dropped by its selection correction or a rival: a bound already
+        const int kk = static_cast<int>(k);
+        const double x = est[kk], sd = std::sqrt(std::max(0.0, cov(kk, kk) * r.uncertainty_inflation));
+        const double lo68 = cc.lo68, lo95 = cc.lo95, hi68 = cc.hi68, hi95 = cc.hi95;
+        if (x < c[col]) {
+          cc.lo68 = std::min(cc.lo68, std::sqrt(std::max(0.0, x - sd)));
+          cc.lo95 = std::min(cc.lo95, std::sqrt(std::max(0.0, x - 1.96 * sd)));
+        } else {
+          cc.hi68 = std::max(cc.hi68, std::sqrt(std::max(0.0, x + sd)));
+          cc.hi95 = std::max(cc.hi95, std::sqrt(std::max(0.0, x + 1.96 * sd)));
+        }
+        if (cc.lo68 != lo68 || cc.lo95 != lo95 || cc.hi68 != hi68 || cc.hi95 != hi95)
+          r.widened[static_cast<size_t>(t)] = true;
       }
     }
   }
