@@ -17,6 +17,8 @@ enum NoiseTerm { kQuantization = 0, kAngleRandomWalk, kBiasInstability, kRateRan
 
 /// report.yaml keys of the terms: quantization, angle_random_walk, bias_instability, rate_random_walk, rate_ramp.
 const char* noiseTermKey(int term);
+/// A set of terms (bit set, 1 << term) by its keys joined with `sep`, e.g. "angle_random_walk+rate_random_walk".
+std::string noiseTermSetName(int terms, const char* sep = "+");
 /// SI unit of each term: rad, rad/sqrt(s), rad/s, rad/s/sqrt(s), rad/s^2 (for a gyro).
 const char* noiseTermUnit(int term);
 

@@ -10,6 +10,21 @@
 
 namespace gyro_allan {
 namespace {
+
+/// The flagged terms as a bit set (1 << term), for noiseTermSetName.
+int termBits(const std::array<bool, kNumTerms>& flags) {
+  int b = 0;
+  for (int t = 0; t < kNumTerms; ++t)
+    if (flags[static_cast<size_t>(t)]) b |= 1 << t;
+  return b;
+}
+
+/// Sets of terms (bit sets) for a note: "angle_random_walk+rate_random_walk; angle_random_walk+rate_ramp".
+std::string setNames(const std::vector<int>& sets) {
+  std::string s;
+  for (int terms : sets) s += std::string(s.empty() ? "" : "; ") + noiseTermSetName(terms);
+  return s;
+}
 // A fit is grossly bad when its generalized chi-squared is far out of reach of chance (clean records: p ~ U(0,1),
 // chi2/dof ~ 1 +- 0.4) and large in size: misfits from sawtooth quantization reach chi2/dof 1e3.
 constexpr double kGrossMisfitP = 1e-6;
@@ -473,15 +488,7 @@ AxisAnalysis AxisStages::finish() {
     // Terms a close rival set of terms tells otherwise (noise_model.hpp FitResult::ambiguous): say which and why.
     const FitResult& f = answerFit(a);
     const std::array<bool, kNumTerms> ambiguous = answerAmbiguous(a);
-    std::string amb, rivals;
-    for (int t = 0; t < kNumTerms; ++t)
-      if (ambiguous[static_cast<size_t>(t)]) amb += std::string(amb.empty() ? "" : ", ") + noiseTermKey(t);
-    for (int terms : f.close_rival_terms) {
-      std::string s;
-      for (int t = 0; t < kNumTerms; ++t)
-        if ((terms >> t) & 1) s += std::string(s.empty() ? "" : "+") + noiseTermKey(t);
-      rivals += std::string(rivals.empty() ? "" : "; ") + s;
-    }
+    const std::string amb = noiseTermSetName(termBits(ambiguous), ", "), rivals = setNames(f.close_rival_terms);
     if (!amb.empty()) {
       char buf[1200];
       std::snprintf(buf, sizeof buf,
@@ -497,15 +504,7 @@ AxisAnalysis AxisStages::finish() {
     // Intervals widened by a close larger set of terms (noise_model.hpp kSupersetGap): say which and why.
     const FitResult& f = answerFit(a);
     const std::array<bool, kNumTerms> widened = answerWidened(a);
-    std::string wid, sets;
-    for (int t = 0; t < kNumTerms; ++t)
-      if (widened[static_cast<size_t>(t)]) wid += std::string(wid.empty() ? "" : ", ") + noiseTermKey(t);
-    for (int terms : f.close_superset_terms) {
-      std::string s;
-      for (int t = 0; t < kNumTerms; ++t)
-        if ((terms >> t) & 1) s += std::string(s.empty() ? "" : "+") + noiseTermKey(t);
-      sets += std::string(sets.empty() ? "" : "; ") + s;
-    }
+    const std::string wid = noiseTermSetName(termBits(widened), ", "), sets = setNames(f.close_superset_terms);
     if (!wid.empty()) {
       char buf[800];
       std::snprintf(buf, sizeof buf,

@@ -85,6 +85,13 @@ const char* noiseTermKey(int term) {
   return (term >= 0 && term < kNumTerms) ? keys[term] : "unknown";
 }
 
+std::string noiseTermSetName(int terms, const char* sep) {
+  std::string s;
+  for (int t = 0; t < kNumTerms; ++t)
+    if ((terms >> t) & 1) s += std::string(s.empty() ? "" : sep) + noiseTermKey(t);
+  return s;
+}
+
 const char* noiseTermUnit(int term) {
   static const char* units[] = {"rad", "rad/sqrt(s)", "rad/s", "rad/s/sqrt(s)", "rad/s^2"};
   return (term >= 0 && term < kNumTerms) ? units[term] : "";

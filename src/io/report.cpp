@@ -195,12 +195,7 @@ void addRivalFields(YAML::Node* n, const FitResult& fit, const std::array<bool, 
   (*n)["rival_score_gap"] = num(fit.rival_score_gap);
   (*n)["rival_aic_gap"] = num(fit.rival_aic_gap);
   YAML::Node close(YAML::NodeType::Sequence);
-  for (int terms : fit.close_rival_terms) {
-    std::string s;
-    for (int t = 0; t < kNumTerms; ++t)
-      if ((terms >> t) & 1) s += std::string(s.empty() ? "" : "+") + noiseTermKey(t);
-    close.push_back(str(s));
-  }
+  for (int terms : fit.close_rival_terms) close.push_back(str(noiseTermSetName(terms)));
   (*n)["close_rivals"] = close;
   (*n)["ambiguous_terms"] = amb;
 }
@@ -209,12 +204,7 @@ void addRivalFields(YAML::Node* n, const FitResult& fit, const std::array<bool, 
 /// (noise_model.hpp FitResult::close_superset_terms, FitResult::widened; `widened` as it applies to what is reported).
 void addSupersetFields(YAML::Node* n, const FitResult& fit, const std::array<bool, kNumTerms>& widened) {
   YAML::Node sets(YAML::NodeType::Sequence), wid(YAML::NodeType::Sequence);
-  for (int terms : fit.close_superset_terms) {
-    std::string s;
-    for (int t = 0; t < kNumTerms; ++t)
-      if ((terms >> t) & 1) s += std::string(s.empty() ? "" : "+") + noiseTermKey(t);
-    sets.push_back(str(s));
-  }
+  for (int terms : fit.close_superset_terms) sets.push_back(str(noiseTermSetName(terms)));
   for (int t = 0; t < kNumTerms; ++t)
     if (widened[static_cast<size_t>(t)]) wid.push_back(str(noiseTermKey(t)));
   (*n)["close_supersets"] = sets;
