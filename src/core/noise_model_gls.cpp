@@ -390,10 +390,19 @@ struct GlsFit {
         }
       }
     }
-    // Larger sets of terms within kSupersetGap (noise_model.hpp): a selected term's interval reaches the larger
-    // set's plain interval of it, on the side of that set's value. After the rivals: a B a close rival does without
-    // is a bound already (unsupported), and keeps the rival rule's interval. Not in a values-only fit (no intervals).
-    if (!options.intervals) return;
+  }
+
+  // Larger sets of terms within kSupersetGap (noise_model.hpp): a selected B's interval in terms_corrected reaches the
+  // larger set's plain interval of B, on the side of that set's value. After ambiguity(): a B a close rival does
+  // without is a bound already (unsupported) and keeps the rival rule's interval. Only B: the term the study found
+  // absorbing a left-out rate random walk; N's interval comes from the selected columns on purpose (Q's column is
+  // nearly collinear with N's; inferAll), and widening a selected K or R was not studied.
+  void widenBySupersets(const Whitened& w) {
+    Coefficient& cc = r.terms_corrected[kBiasInstability];
+    int b_col = -1;
+    for (int col : ieee_cols)
+      if (P.term[static_cast<size_t>(col)] == kBiasInstability) b_col = col;
+    if (!options.intervals || b_col < 0 || !(c[b_col] > 0) || !cc.supported) return;
     for (const CloseRival& cs : close_supersets) {
       std::vector<int> cols;
       for (int col = 0; col < ncol; ++col)
@@ -401,27 +410,17 @@ struct GlsFit {
       Eigen::VectorXd est;
       Eigen::MatrixXd cov;
       solveFree(w, cols, &est, &cov);
-      for (size_t k = 0; k < cols.size(); ++k) {
-        const int col = cols[k], t = P.term[static_cast<size_t>(col)];
-        // Bias instability only: the term the study found absorbing a left-out rate random walk. N's interval comes
-        // from the selected columns on purpose (Q's column is nearly collinear with N's; inferAll), and widening a
-        // selected K or R was not studied.
-        if (t != kBiasInstability || !(c[col] > 0)) continue;
-        Coefficient& cc = r.terms_corrected[static_cast<size_t>(t)];
-        if (!cc.supported) continue;  // dropped by its selection correction or a rival: a bound already
-        const int kk = static_cast<int>(k);
-        const double x = est[kk], sd = std::sqrt(std::max(0.0, cov(kk, kk) * r.uncertainty_inflation));
-        const double lo68 = cc.lo68, lo95 = cc.lo95, hi68 = cc.hi68, hi95 = cc.hi95;
-        if (x < c[col]) {
-          cc.lo68 = std::min(cc.lo68, std::sqrt(std::max(0.0, x - sd)));
-          cc.lo95 = std::min(cc.lo95, std::sqrt(std::max(0.0, x - 1.96 * sd)));
-        } else {
-          cc.hi68 = std::max(cc.hi68, std::sqrt(std::max(0.0, x + sd)));
-          cc.hi95 = std::max(cc.hi95, std::sqrt(std::max(0.0, x + 1.96 * sd)));
-        }
-        if (cc.lo68 != lo68 || cc.lo95 != lo95 || cc.hi68 != hi68 || cc.hi95 != hi95)
-          r.widened[static_cast<size_t>(t)] = true;
+      const int k = static_cast<int>(std::find(cols.begin(), cols.end(), b_col) - cols.begin());
+      const double x = est[k], sd = std::sqrt(std::max(0.0, cov(k, k) * r.uncertainty_inflation));
+      const double lo68 = cc.lo68, lo95 = cc.lo95, hi68 = cc.hi68, hi95 = cc.hi95;
+      if (x < c[b_col]) {
+        cc.lo68 = std::min(cc.lo68, std::sqrt(std::max(0.0, x - sd)));
+        cc.lo95 = std::min(cc.lo95, std::sqrt(std::max(0.0, x - 1.96 * sd)));
+      } else {
+        cc.hi68 = std::max(cc.hi68, std::sqrt(std::max(0.0, x + sd)));
+        cc.hi95 = std::max(cc.hi95, std::sqrt(std::max(0.0, x + 1.96 * sd)));
       }
+      if (cc.lo68 != lo68 || cc.lo95 != lo95 || cc.hi68 != hi68 || cc.hi95 != hi95) r.widened[kBiasInstability] = true;
     }
   }
 
@@ -667,6 +666,7 @@ FitResult fitNoiseModelGls(const DeviationCurve& curve, const FitOptions& option
   g.r.intervals = options.intervals;
   g.coefficients();
   g.ambiguity(w);
+  g.widenBySupersets(w);
   g.modelCurve();
   g.r.ok = true;
   return g.r;
