@@ -124,6 +124,12 @@ void expectRuleHolds(const ModelCheck& mc, const std::string& what) {
     return;
   }
   EXPECT_LT(mc.after.rms_log10, mc.before.rms_log10 * (1.0 - mo.min_rms_gain));
+  // The trials were fitted without their intervals (FitOptions::intervals); what is kept has them.
+  EXPECT_TRUE(mc.fit_after.intervals);
+  for (int k = 0; k < kNumTerms; ++k) {
+    const Coefficient& c = mc.fit_after.terms_corrected[static_cast<size_t>(k)];
+    EXPECT_TRUE(std::isfinite(c.hi68) && std::isfinite(c.hi95) && std::isfinite(c.sigma)) << noiseTermKey(k);
+  }
   ASSERT_EQ(mc.fit_after.extra.size(), mc.effects.size());
   for (size_t e = 0; e < mc.effects.size(); ++e) {
     const Coefficient& c = mc.fit_after.extra[e];
