@@ -112,9 +112,27 @@ QualityVerdict assessQuality(const AxisAnalysis& a) {
   ctx.spikes = a.spikes_checked ? a.spikes.count : 0;
   for (const auto& n : a.notes) ctx.static_stretch = ctx.static_stretch || n.find(kStaticStretchNote) != std::string::npos;
   const bool split_ok = a.has_split && a.split.ok;
+  // The joint fit's N held against the split's answer is that of a joint fit that describes the curve: where the
+  // plain joint fit misfits grossly (an undithered sawtooth, the reason auto chose the split) its N is ~10-20x the
+  // truth and no evidence against the split's, and comparing them called every sawtooth record doubtful. So with the
+  // split as the answer: the model check's fit with its effects (the sawtooth's lines) when it added some and fits,
+  // else the plain fit when it fits, else nothing to compare.
+  auto fits = [](double rms, double chi2) {
+    return rms <= quality_limits::kBadRmsLog10 && chi2 <= quality_limits::kBadChi2Dof;
+  };
+  const Coefficient* joint_n = nullptr;
   if (a.fit.ok && split_ok && a.method != "pulse_times") {  // pulse_times: neither method's N is the answer
+    if (a.method != "wavelet_split")
+      joint_n = &a.fit.terms[kAngleRandomWalk];
+    else if (a.has_check && !a.check.effects.empty() && a.check.fit_after.ok &&
+             fits(a.check.after.rms_log10, a.check.after.chi2_dof))
+      joint_n = &a.check.fit_after.terms[kAngleRandomWalk];
+    else if (fits(a.fit.rms_log10, a.fit.chi2_dof))
+      joint_n = &a.fit.terms[kAngleRandomWalk];
+  }
+  if (joint_n) {
     ctx.compare_methods = true;
-    ctx.joint_fit_n = a.fit.terms[kAngleRandomWalk];
+    ctx.joint_fit_n = *joint_n;
     ctx.wavelet_split_n = a.split.terms[kAngleRandomWalk];
   }
   bool ok = a.fit.ok;
