@@ -101,7 +101,7 @@ const FitResult& answerFit(const AxisAnalysis& a);
 /// for pulse_times all but Q (the lattice's pulse weight).
 std::array<bool, kNumTerms> answerAmbiguous(const AxisAnalysis& a);
 /// The terms of the answer whose interval a close larger set of terms widened (FitResult::widened, kSupersetGap);
-/// none for the wavelet split, whose B, K and R keep their fit's own intervals unless ambiguous.
+/// for the wavelet split only B, K and R (since session 16 it reports its denoised fit's terms_corrected).
 std::array<bool, kNumTerms> answerWidened(const AxisAnalysis& a);
 
 /// Rate samples [rad/s] of one gap-free segment of angle samples, in place: an accumulated angle theta (n points)

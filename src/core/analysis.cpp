@@ -529,8 +529,9 @@ const FitResult& answerFit(const AxisAnalysis& a) {
 }
 
 std::array<bool, kNumTerms> answerWidened(const AxisAnalysis& a) {
-  if (a.method == "wavelet_split") return {};
-  return answerFit(a).widened;
+  std::array<bool, kNumTerms> w = answerFit(a).widened;  // the split reports its denoised fit's B, K, R as corrected
+  if (a.method == "wavelet_split") w[kQuantization] = w[kAngleRandomWalk] = false;
+  return w;
 }
 
 std::array<bool, kNumTerms> answerAmbiguous(const AxisAnalysis& a) {
