@@ -112,6 +112,11 @@ TEST_F(Outputs, KalibrValuesAreTheReportsNAndKInSi) {
     ASSERT_TRUE(fit["evidence_chi2"]) << ax;
     ASSERT_TRUE(fit["dropped_by_selection_correction"]) << ax;
     EXPECT_TRUE(fit["dropped_by_selection_correction"].IsSequence()) << ax;
+    // ... and the split's, for its denoised fit's B, K, R (its answer since session 16).
+    const YAML::Node split = rep["axes"][ax]["methods"]["wavelet_split"];
+    if (split) {
+      EXPECT_TRUE(split["dropped_by_selection_correction"].IsSequence()) << ax;
+    }
   }
   // Accelerometer: the report's section and Kalibr's accelerometer_noise_density = VRW, declared 2e-3 (3 %).
   ASSERT_TRUE(rep["accelerometer"]["axes"]["z"]) << "no accelerometer section";

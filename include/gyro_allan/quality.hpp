@@ -45,6 +45,8 @@ struct QualityContext {
   /// Both methods ran and succeeded: N of joint_fit and of wavelet_split (value, or its bound when unsupported).
   bool compare_methods = false;
   Coefficient joint_fit_n, wavelet_split_n;
+  /// Appended to a good or doubtful verdict's reason (e.g. that the split's N had no joint fit to be checked against).
+  std::string remark;
 };
 
 /// The verdict of one analysed axis: from final_error (the error of the chosen method's model), the coefficients,

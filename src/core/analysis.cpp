@@ -396,7 +396,7 @@ AxisAnalysis AxisStages::finish() {
   if (method == "wavelet_split") {
     a.coefficients = a.split.terms;
     FitResult tmp;
-    tmp.terms = a.split.model_terms;  // the curve the split fitted (an ambiguous term is a bound in `terms` only)
+    tmp.terms = a.split.model_terms;  // the curve the split fitted (least squares; `terms` has the corrected B, K, R)
     for (size_t i = 0; i < a.oadev.points.size(); ++i) a.final_model_var[i] = modelVariance(tmp, a.oadev.points[i].tau);
     int n_params = 0;
     for (const auto& c : a.split.model_terms) n_params += c.supported ? 1 : 0;

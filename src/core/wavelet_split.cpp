@@ -514,10 +514,13 @@ QnEstimate iterateQn(const LevelModel& lm, const SplitAngleFactors& fac, const A
     // White when the free share agrees with Q^2 and the two fits agree on N^2 (each within 3 sigma). A sawtooth can
     // pass the first test on a short record, whose few coarse levels leave gamma uncertain; the fixed fit then read
     // the non-white power of the finer levels it adds as ARW (10 min at 2 deg/h: N^2 x100, Q^2 driven to 0 and the
-    // split failed on 5 of 20 records). The second test catches exactly that.
+    // split failed on 5 of 20 records). The second test catches exactly that. The two fits share their coarse levels,
+    // so their N^2 are positively correlated and hypot() overstates the sigma of the difference: the test leans
+    // towards white. It applies only when the free fit fitted the share (with fewer than 3 levels it did not, and its
+    // N^2 then carries the quantization unsubtracted).
     const bool share_agrees = !(freef.ok && freef.gamma_sigma > 0 && std::fabs(freef.gamma - e.q2) > 3.0 * freef.gamma_sigma);
-    const bool n_agrees =
-        !(fixed.ok && freef.ok && std::fabs(fixed.n2 - freef.n2) > 3.0 * std::hypot(fixed.n2_sigma, freef.n2_sigma));
+    const bool n_agrees = !(fixed.ok && freef.ok && freef.gamma_sigma > 0 &&
+                            std::fabs(fixed.n2 - freef.n2) > 3.0 * std::hypot(fixed.n2_sigma, freef.n2_sigma));
     r->quantization_white = share_agrees && n_agrees;
     r->quantization_level_share = freef.ok && e.q2 > 0 ? freef.gamma / e.q2 : 0.0;
     const LevelFit& use = (r->quantization_white && fixed.ok) ? fixed : freef;

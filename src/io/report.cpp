@@ -99,6 +99,11 @@ YAML::Node splitNode(const WaveletSplitResult& w) {
   est["n_removed"] = num(w.n_removed);
   n["estimates"] = est;
   n["denoised_fit"] = errorNode(w.denoised_fit_error.rms_log10, w.denoised_fit_error.chi2_dof);
+  // B, K, R of `coefficients` are the denoised fit's corrected answer: those selected, then dropped (value 0).
+  YAML::Node dropped(YAML::NodeType::Sequence);
+  for (int t = kBiasInstability; t < kNumTerms; ++t)
+    if (w.denoised_fit.ok && w.denoised_fit.dropped_by_correction[static_cast<size_t>(t)]) dropped.push_back(str(noiseTermKey(t)));
+  n["dropped_by_selection_correction"] = dropped;
   n["removed_fit"] = errorNode(w.removed_fit_error.rms_log10, w.removed_fit_error.chi2_dof);
   return n;
 }
