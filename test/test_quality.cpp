@@ -32,6 +32,18 @@ AxisAnalysis handMade(double rms_log10, double chi2_dof) {
   return a;
 }
 
+/// rlg_saw classes' noise (coverage_study): an undithered pulse counter, Q = 0.35 arcsec, N = 0.002 deg/sqrt(h),
+/// B = 0.005 deg/h, at a constant input rate [deg/h].
+AxisNoise undithered(double rate_deg_h) {
+  AxisNoise n;
+  n.quantization = 1.69684788e-06;
+  n.dither = false;
+  n.angle_random_walk = 5.81776417e-07;
+  n.bias_instability = 2.42406841e-08;
+  n.input_rate = rate_deg_h * M_PI / 180 / 3600;
+  return n;
+}
+
 }  // namespace
 
 TEST(Quality, CleanSimulatedRecordIsGood) {
@@ -174,12 +186,7 @@ TEST(Quality, FitResultOverloadAppliesTheSameRule) {
 // before; at this length and rate the check's fit fits, chi2/dof ~30 against 50, and its least-squares N is within
 // x2 of the split's).
 TEST(Quality, SawtoothAnswerIsNotDoubtedByAMisfittingJointFit) {
-  AxisNoise n;
-  n.quantization = 1.69684788e-06;
-  n.dither = false;
-  n.angle_random_walk = 5.81776417e-07;
-  n.bias_instability = 2.42406841e-08;
-  n.input_rate = 10 * M_PI / 180 / 3600;
+  const AxisNoise n = undithered(10);
   const double hz = 100;
   int good = 0, checked = 0;
   for (uint64_t seed = 1; seed <= 4; ++seed) {
@@ -224,11 +231,7 @@ TEST(Quality, AnswerWidenedFollowsTheSplitsFit) {
 // slow-counter rule (analysis.cpp) the split's denoised fit excused the raw misfit: seed 3 here came out "good"
 // with Q = 0 and N 4.3x its truth.
 TEST(Quality, SlowUnditheredCounterIsRightOrBad) {
-  AxisNoise n;
-  n.quantization = 1.69684788e-06;
-  n.dither = false;
-  n.angle_random_walk = 5.81776417e-07;
-  n.bias_instability = 2.42406841e-08;
+  const AxisNoise n = undithered(0);
   const double hz = 100, tau0 = 1 / hz;
   int bad = 0;
   for (uint64_t seed = 1; seed <= 8; ++seed) {
