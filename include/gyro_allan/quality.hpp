@@ -31,6 +31,10 @@ constexpr double kDoubtfulRmsLog10 = 0.05;       ///< doubtful above (ADEV off b
 constexpr double kDoubtfulChi2Dof = 5.0;         ///< doubtful above
 constexpr double kDoubtfulSpikeFraction = 1e-3;  ///< doubtful when more than this fraction of samples were spikes
 constexpr double kDoubtfulMethodRatio = 2.0;     ///< doubtful when joint_fit's and wavelet_split's N differ by more
+
+/// A fit error within the bad limits (rms_log10 <= kBadRmsLog10 and chi2_dof <= kBadChi2Dof; false when either is
+/// NaN): the model describes the curve well enough for its numbers to count.
+inline bool notBad(double rms_log10, double chi2_dof) { return rms_log10 <= kBadRmsLog10 && chi2_dof <= kBadChi2Dof; }
 }  // namespace quality_limits
 
 /// The note analyze_bag adds to each axis (AxisAnalysis::notes) when only the longest static stretch of a record that

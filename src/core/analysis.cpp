@@ -402,9 +402,7 @@ AxisAnalysis AxisStages::finish() {
     for (const auto& c : a.split.model_terms) n_params += c.supported ? 1 : 0;
     a.final_error = fitError(a.oadev, a.final_model_var, a.fit.used, n_params, options.fit.rms_min_edf);
     const FitResult& den = a.split.denoised_fit;
-    auto bad = [](double rms, double chi2) {
-      return !(rms <= quality_limits::kBadRmsLog10) || !(chi2 <= quality_limits::kBadChi2Dof);
-    };
+    auto bad = [](double rms, double chi2) { return !quality_limits::notBad(rms, chi2); };
     // A pulse count whose pattern repeats too slowly for the sawtooth test (a counter at ~0 rate: the angle wanders
     // across a few quanta in the record, and its rounding error is neither white nor a sawtooth): nothing explains
     // the raw misfit, which then stands.
@@ -449,8 +447,8 @@ AxisAnalysis AxisStages::finish() {
   }
   if (a.has_pulse_times && a.pulse_times.ok && a.pulse_fit.ok && pulse_n.supported &&
       pulse_n.sigma <= kPulseTimesMaxRelSigma * pulse_n.value &&
-      !(a.final_error.rms_log10 <= quality_limits::kBadRmsLog10 && a.final_error.chi2_dof <= quality_limits::kBadChi2Dof) &&
-      a.pulse_fit.rms_log10 <= quality_limits::kBadRmsLog10 && a.pulse_fit.chi2_dof <= quality_limits::kBadChi2Dof) {
+      !quality_limits::notBad(a.final_error.rms_log10, a.final_error.chi2_dof) &&
+      quality_limits::notBad(a.pulse_fit.rms_log10, a.pulse_fit.chi2_dof)) {
     // auto: the chosen method fits badly, the pulse-time reconstruction (pulseTimes) does not.
     char buf[320];
     std::snprintf(buf, sizeof buf,

@@ -119,26 +119,24 @@ QualityVerdict assessQuality(const AxisAnalysis& a) {
   // else the plain fit when it fits, else nothing to compare (said in the reason). The least-squares N in each case,
   // as always for the plain fit. Measured (session 16): at 2 h and at 2-5 deg/h the check adds no effects or its fit
   // misfits too, so most sawtooth axes are not cross-checked; at 10 deg/h and 10-20 min the check's fit is used.
-  auto fits = [](double rms, double chi2) {
-    return rms <= quality_limits::kBadRmsLog10 && chi2 <= quality_limits::kBadChi2Dof;
-  };
-  const Coefficient* joint_n = nullptr;
+  using quality_limits::notBad;
   if (a.fit.ok && split_ok && a.method != "pulse_times") {  // pulse_times: neither method's N is the answer
-    if (a.method != "wavelet_split")
-      joint_n = &a.fit.terms[kAngleRandomWalk];
-    else if (a.has_check && !a.check.effects.empty() && a.check.fit_after.ok &&
-             fits(a.check.after.rms_log10, a.check.after.chi2_dof))
-      joint_n = &a.check.fit_after.terms[kAngleRandomWalk];
-    else if (fits(a.fit.rms_log10, a.fit.chi2_dof))
-      joint_n = &a.fit.terms[kAngleRandomWalk];
-  }
-  if (joint_n) {
-    ctx.compare_methods = true;
-    ctx.joint_fit_n = *joint_n;
-    ctx.wavelet_split_n = a.split.terms[kAngleRandomWalk];
-  } else if (a.fit.ok && split_ok && a.method == "wavelet_split") {
-    ctx.remark = fmt("; N not cross-checked: the joint fit misfits the curve (rms_log10 %.3g, chi2/dof %.3g)",
-                     a.fit.rms_log10, a.fit.chi2_dof);
+    const Coefficient* joint_n = &a.fit.terms[kAngleRandomWalk];
+    if (a.method == "wavelet_split") {
+      if (a.has_check && !a.check.effects.empty() && a.check.fit_after.ok &&
+          notBad(a.check.after.rms_log10, a.check.after.chi2_dof))
+        joint_n = &a.check.fit_after.terms[kAngleRandomWalk];
+      else if (!notBad(a.fit.rms_log10, a.fit.chi2_dof))
+        joint_n = nullptr;
+    }
+    if (joint_n) {
+      ctx.compare_methods = true;
+      ctx.joint_fit_n = *joint_n;
+      ctx.wavelet_split_n = a.split.terms[kAngleRandomWalk];
+    } else {
+      ctx.remark = fmt("; N not cross-checked: the joint fit misfits the curve (rms_log10 %.3g, chi2/dof %.3g)",
+                       a.fit.rms_log10, a.fit.chi2_dof);
+    }
   }
   bool ok = a.fit.ok;
   std::string failure = a.fit.message;

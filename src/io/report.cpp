@@ -55,6 +55,15 @@ YAML::Node errorNode(double rms_log10, double chi2_dof) {
   return n;
 }
 
+// The terms from `from` on that the fit selected and its selection correction then dropped (noise_model.hpp
+// terms_corrected), as a list of term keys.
+YAML::Node droppedByCorrection(const FitResult& fit, int from) {
+  YAML::Node dropped(YAML::NodeType::Sequence);
+  for (int t = from; t < kNumTerms; ++t)
+    if (fit.ok && fit.dropped_by_correction[static_cast<size_t>(t)]) dropped.push_back(str(noiseTermKey(t)));
+  return dropped;
+}
+
 YAML::Node splitNode(const WaveletSplitResult& w) {
   YAML::Node n;
   n["ok"] = w.ok;
@@ -100,10 +109,7 @@ YAML::Node splitNode(const WaveletSplitResult& w) {
   n["estimates"] = est;
   n["denoised_fit"] = errorNode(w.denoised_fit_error.rms_log10, w.denoised_fit_error.chi2_dof);
   // B, K, R of `coefficients` are the denoised fit's corrected answer: those selected, then dropped (value 0).
-  YAML::Node dropped(YAML::NodeType::Sequence);
-  for (int t = kBiasInstability; t < kNumTerms; ++t)
-    if (w.denoised_fit.ok && w.denoised_fit.dropped_by_correction[static_cast<size_t>(t)]) dropped.push_back(str(noiseTermKey(t)));
-  n["dropped_by_selection_correction"] = dropped;
+  n["dropped_by_selection_correction"] = droppedByCorrection(w.denoised_fit, kBiasInstability);
   n["removed_fit"] = errorNode(w.removed_fit_error.rms_log10, w.removed_fit_error.chi2_dof);
   return n;
 }
@@ -232,10 +238,7 @@ YAML::Node fitNode(const FitResult& fit) {
     // Generalized chi-squared a selected term saves (or an unselected one would save); selection needs > penalty.
     for (int t = 0; t < kNumTerms; ++t) n["evidence_chi2"][noiseTermKey(t)] = num(fit.evidence[static_cast<size_t>(t)]);
     // Selected, then dropped: the selection-corrected value is 0 (noise_model.hpp terms_corrected).
-    YAML::Node dropped(YAML::NodeType::Sequence);
-    for (int t = 0; t < kNumTerms; ++t)
-      if (fit.dropped_by_correction[static_cast<size_t>(t)]) dropped.push_back(str(noiseTermKey(t)));
-    n["dropped_by_selection_correction"] = dropped;
+    n["dropped_by_selection_correction"] = droppedByCorrection(fit, 0);
     addRivalFields(&n, fit, fit.ambiguous);
     addSupersetFields(&n, fit, fit.widened);
   } else {
