@@ -2,6 +2,7 @@
 // coefficients from simulated gyros (tolerances from the acceptance criteria and the reported sigmas).
 #include <gtest/gtest.h>
 
+#include <bitset>
 #include <cmath>
 #include <cstdio>
 
@@ -168,8 +169,9 @@ TEST(NoiseModel, RecoversRlgCoefficientsFromSimulation) {
   }
 }
 
-// Term selection's non-nested rivals (FitResult::rival_terms, close_rival_terms): for every rival within kRivalGap
-// (on the score or on AIC), the answer claims no term the rival does without; a term is ambiguous exactly when some
+// Term selection's non-nested rivals (FitResult::rival_terms, close_rival_terms): for every close rival (isCloseRival:
+// within kRivalGap on the score or on AIC, a swap within a swapped-out term's entry penalty in chi-squared), the
+// answer claims no term the rival does without; a term is ambiguous exactly when some
 // close rival disagrees with the selection on it; and the closest rival's terms the answer lacks have intervals
 // reaching its values. A tactical gyro with a weak ramp (N 0.1 deg/sqrt(h), B 0.8 deg/h, K 0.5 deg/h/sqrt(h),
 // R 6 deg/h^2; 1 h at 20 Hz), where N+B and N+K tell many records about equally well: seeds 7801-7830 hold both kinds
@@ -196,9 +198,18 @@ TEST(NoiseModel, CloseRivalMakesTheTermsItDisagreesOnAmbiguous) {
     EXPECT_NE(f.rival_terms & sel, f.rival_terms) << "seed " << seed << ": the rival is a subset of the selection";
     EXPECT_NE(f.rival_terms & sel, sel) << "seed " << seed << ": the rival is a superset of the selection";
     EXPECT_DOUBLE_EQ(f.rival_gap, std::min(f.rival_score_gap, f.rival_aic_gap)) << "seed " << seed;
-    ASSERT_EQ(!f.close_rival_terms.empty(), f.rival_gap < kRivalGap) << "seed " << seed;
-    if (!f.close_rival_terms.empty()) {
+    // the closest rival, close by its own measure (any close rival is within the largest penalty)
+    const bool closest_close =
+        isCloseRival(sel, f.rival_terms, f.rival_score_gap, f.rival_aic_gap, FitOptions{});
+    if (closest_close) {
+      ASSERT_FALSE(f.close_rival_terms.empty()) << "seed " << seed;
       EXPECT_EQ(f.close_rival_terms.front(), f.rival_terms) << "seed " << seed;
+    }
+    if (f.rival_gap < kRivalGap) {
+      EXPECT_TRUE(closest_close) << "seed " << seed;
+    }
+    if (!f.close_rival_terms.empty()) {
+      EXPECT_LT(f.rival_gap, FitOptions{}.ramp_penalty) << "seed " << seed;
     }
     if (f.rival_score_gap >= kRivalGap && f.rival_aic_gap < kRivalGap) ++aic_only;
     for (int rt : f.close_rival_terms) {  // each listed rival: non-nested, and keeps N
@@ -213,7 +224,7 @@ TEST(NoiseModel, CloseRivalMakesTheTermsItDisagreesOnAmbiguous) {
       bool disputed = false;  // by some rival within the gap
       for (int rt : f.close_rival_terms) disputed = disputed || (((rt >> t) & 1) != selected);
       EXPECT_EQ(f.ambiguous[i], disputed) << "seed " << seed << " " << noiseTermKey(t);
-      if (disputed && (!(f.rival_gap < kRivalGap) || in_rival == selected)) ++by_other_rival;
+      if (disputed && (!closest_close || in_rival == selected)) ++by_other_rival;
       if (!disputed) continue;
       if (selected) {
         ++removed;
@@ -224,23 +235,76 @@ TEST(NoiseModel, CloseRivalMakesTheTermsItDisagreesOnAmbiguous) {
         EXPECT_EQ(cc.lo95, 0.0);
       } else {
         EXPECT_FALSE(cc.supported);
-        if (!(f.rival_gap < kRivalGap) || !in_rival) continue;
+        if (!closest_close || !in_rival) continue;
         ++rival_checked;
         EXPECT_GE(cc.hi68, f.rival_values[i] * (1 - 1e-9)) << "seed " << seed << " " << noiseTermKey(t);
         EXPECT_GE(cc.hi95, cc.hi68) << "seed " << seed << " " << noiseTermKey(t);
       }
     }
-    (f.rival_gap < kRivalGap ? close : far) += 1;
+    (closest_close ? close : far) += 1;
   }
-  std::printf("rival within %g: %d of 30 records (%d on AIC's side only); %d selected terms removed, %d rival terms "
-              "checked; %d terms made ambiguous by a rival other than the closest\n",
-              kRivalGap, close, aic_only, removed, rival_checked, by_other_rival);
+  std::printf("closest rival close: %d of 30 records (%d on AIC's side only); %d selected terms removed, %d rival "
+              "terms checked; %d terms made ambiguous by a rival other than the closest\n",
+              close, aic_only, removed, rival_checked, by_other_rival);
   EXPECT_GT(close, 0);
   EXPECT_GT(far, 0);
   EXPECT_GT(removed, 0);
   EXPECT_GT(rival_checked, 0);
   EXPECT_GT(aic_only, 0);        // the AIC side admits rivals the score alone would not
   EXPECT_GT(by_other_rival, 0);  // and rivals other than the closest count
+}
+
+// A rival of the same size (a swap: N + B for N + K) counts within the entry penalty of the term it swaps out, not
+// only within kRivalGap (isCloseRival): between sets of equal size only chi-squared decides, and a term claimed over
+// a swap must have won it by what it must save to enter a nested set. The tactical gyro without the ramp (N 0.1
+// deg/sqrt(h), B 0.8 deg/h, K 0.5 deg/h/sqrt(h); 1 h at 20 Hz, seeds 7901-7960): in every record whose closest rival
+// is a swap trailing by 2 to 4, the term it swaps out is reported as a bound (value 0, interval from 0) and the
+// swapped-in term's interval reaches the rival's value. Before session 17 those terms were claimed (B at its value,
+// or a K far below detection: +330 % to +690 % in 5 of 600 such records at 200 Hz).
+TEST(NoiseModel, SwapMustBeWonByAnEntrysWorth) {
+  const double deg = M_PI / 180.0;
+  AxisNoise a;
+  a.angle_random_walk = 0.1 * deg / 60.0;
+  a.bias_instability = 0.8 * deg / 3600.0;
+  a.rate_random_walk = 0.5 * deg / 3600.0 / 60.0;
+  const FitOptions opt;
+  int swaps = 0, checked_out = 0, checked_in = 0;
+  for (uint64_t seed = 7901; seed <= 7960; ++seed) {
+    const std::vector<double> y = simulateAxis(a, 20.0, 72000, seed, 0);
+    DeviationCurve c = computeDeviation("oadev", y, InputKind::Rate, 1.0 / 20.0, DeviationOptions{});
+    const FitResult f = fitWithModelEdf(&c, opt, 0.683);
+    ASSERT_TRUE(f.ok) << f.message;
+    int sel = 0;
+    for (int t = 0; t < kNumTerms; ++t)
+      if (f.terms[static_cast<size_t>(t)].supported) sel |= 1 << t;
+    const int rival = f.rival_terms;
+    const std::bitset<kNumTerms> sel_set(static_cast<unsigned>(sel)), rival_set(static_cast<unsigned>(rival));
+    if (rival == 0 || rival_set.count() != sel_set.count()) continue;
+    if (!(f.rival_gap >= kRivalGap && f.rival_aic_gap < opt.term_penalty)) continue;
+    ++swaps;
+    EXPECT_TRUE(isCloseRival(sel, rival, f.rival_score_gap, f.rival_aic_gap, opt)) << "seed " << seed;
+    ASSERT_FALSE(f.close_rival_terms.empty()) << "seed " << seed;
+    EXPECT_EQ(f.close_rival_terms.front(), rival) << "seed " << seed;
+    for (int t = 0; t < kNumTerms; ++t) {
+      const size_t i = static_cast<size_t>(t);
+      const bool in_rival = rival_set[i], selected = sel_set[i];
+      if (in_rival == selected) continue;
+      const Coefficient& cc = f.terms_corrected[i];
+      EXPECT_TRUE(f.ambiguous[i]) << "seed " << seed << " " << noiseTermKey(t);
+      EXPECT_FALSE(cc.supported) << "seed " << seed << " " << noiseTermKey(t) << " (gap " << f.rival_gap << ")";
+      if (selected) {
+        ++checked_out;
+        EXPECT_EQ(cc.value, 0.0) << "seed " << seed;
+        EXPECT_EQ(cc.lo68, 0.0) << "seed " << seed;
+      } else {
+        ++checked_in;
+        EXPECT_GE(cc.hi68, f.rival_values[i] * (1 - 1e-9)) << "seed " << seed << " " << noiseTermKey(t);
+      }
+    }
+  }
+  std::printf("swaps trailing by %g to %g: %d of 60 records; %d swapped-out terms reported as bounds, %d swapped-in "
+              "terms checked\n", kRivalGap, opt.term_penalty, swaps, checked_out, checked_in);
+  EXPECT_GE(swaps, 2);  // the rule must have been exercised
 }
 
 // The same rule through the wavelet split (its B, K, R come from the denoised part's fit): a dithered MEMS-like gyro

@@ -1,6 +1,7 @@
 // IEEE 952 fit by generalized least squares: the covariance of the overlapping AVAR estimates across tau
 // (avar_covariance.hpp) weights the fit, selects the terms by the chi-squared they buy, and gives the intervals.
 #include <algorithm>
+#include <bitset>
 #include <cmath>
 #include <limits>
 #include <memory>
@@ -206,7 +207,7 @@ struct GlsFit {
     size_t index;
     Eigen::VectorXd weights;
   };
-  std::vector<CloseRival> close_rivals;      // every rival within kRivalGap (selectTerms), the closest first
+  std::vector<CloseRival> close_rivals;      // every close rival (isCloseRival; selectTerms), the closest first
   std::vector<CloseRival> close_supersets;   // every larger set of terms within kSupersetGap on AIC (selectTerms)
   std::vector<int> pos;                      // the selected columns
   struct TermInference {
@@ -308,8 +309,9 @@ struct GlsFit {
     }
     c = best_c;
     // Rivals that tell the record with other terms: neither a subset nor a superset of the selection (nested
-    // alternatives are what each term's selective interval accounts for), within kRivalGap on the score or on AIC
-    // (noise_model.hpp). The closest one is reported.
+    // alternatives are what each term's selective interval accounts for), close by isCloseRival (within kRivalGap on
+    // the score or on AIC, a swap within an entry penalty in chi-squared; noise_model.hpp). The closest one is
+    // reported.
     int sel = 0;
     double sel_aic = std::numeric_limits<double>::infinity();
     for (int col : ieee_cols)
@@ -319,9 +321,9 @@ struct GlsFit {
     const int n_bit = 1 << kAngleRandomWalk;
     for (size_t i = 0; i < scored.size(); ++i) {
       const int terms = scored[i].terms;
-      const double gap = std::min(scored[i].score - best_score, scored[i].aic - sel_aic);
+      const double score_gap = scored[i].score - best_score, aic_gap = scored[i].aic - sel_aic;
+      const double gap = std::min(score_gap, aic_gap);
       if (terms != sel && (terms & sel) == sel) {  // a larger set of terms: the selection and some it left out
-        const double aic_gap = scored[i].aic - sel_aic;
         const bool seen = std::any_of(close_supersets.begin(), close_supersets.end(),
                                       [&](const CloseRival& x) { return x.terms == terms; });
         if (aic_gap < kSupersetGap && !seen) close_supersets.push_back({aic_gap, terms, i, fits[i]});
@@ -334,10 +336,11 @@ struct GlsFit {
       // (A subset with an IEEE column that came out at 0 has the terms of a smaller one: counted once.)
       const bool seen =
           std::any_of(close_rivals.begin(), close_rivals.end(), [&](const CloseRival& x) { return x.terms == terms; });
-      if (gap < kRivalGap && !seen) close_rivals.push_back({gap, terms, i, Eigen::VectorXd()});
+      if (isCloseRival(sel, terms, score_gap, aic_gap, options) && !seen)
+        close_rivals.push_back({gap, terms, i, Eigen::VectorXd()});
       if (gap < r.rival_gap) {
         r.rival_gap = gap, r.rival_terms = terms, rival_c = fits[i];
-        r.rival_score_gap = scored[i].score - best_score, r.rival_aic_gap = scored[i].aic - sel_aic;
+        r.rival_score_gap = score_gap, r.rival_aic_gap = aic_gap;
       }
     }
     // (stable: on a tie the first in subset order comes first, as for rival_terms above)
@@ -352,7 +355,7 @@ struct GlsFit {
     for (const auto& cs : close_supersets) r.close_superset_terms.push_back(cs.terms);
   }
 
-  // Terms a rival within kRivalGap tells otherwise, for every such rival (FitResult::ambiguous):
+  // Terms a close rival (isCloseRival) tells otherwise, for every such rival (FitResult::ambiguous):
   // a term the search selected and the rival does without is not supported (its value 0, its interval from 0 to its
   // upper end), and a rival's term the search did not select gets at least the rival's plain upper ends (its free
   // least-squares value + 1 and 1.96 sd at the full model's covariance). The selective intervals (inferAll) condition on which terms were kept,
@@ -633,6 +636,17 @@ struct GlsFit {
 };
 
 }  // namespace
+
+bool isCloseRival(int selected_terms, int rival_terms, double score_gap, double aic_gap, const FitOptions& options) {
+  if (std::min(score_gap, aic_gap) < kRivalGap) return true;
+  const std::bitset<kNumTerms> sel(static_cast<unsigned>(selected_terms)), rival(static_cast<unsigned>(rival_terms));
+  if (sel.count() != rival.count()) return false;
+  double entry = 0.0;  // the dearest entry among the terms the swap takes out
+  for (int t = 0; t < kNumTerms; ++t)
+    if (sel[static_cast<size_t>(t)] && !rival[static_cast<size_t>(t)])
+      entry = std::max(entry, t == kRateRamp ? options.ramp_penalty : options.term_penalty);
+  return aic_gap < entry;
+}
 
 namespace detail {
 
