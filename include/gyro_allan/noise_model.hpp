@@ -157,7 +157,7 @@ constexpr double kRivalGap = 2.0;
 /// chi-squared difference (its AIC gap) below the entry penalty (FitOptions::term_penalty, ramp_penalty) of a term
 /// the selection has and the rival lacks. Between sets of equal size AIC decides by chi-squared alone, and a term
 /// claimed over a swap must have won it by what the same term must save to enter a nested set (a ramp 6: K is
-/// preferred unless the data demand the ramp). With kRivalGap alone, N + K won over N + B by 2-3 in 5 of 600
+/// preferred unless the data demand the ramp). With kRivalGap alone, N + K won over N + B by 2-3 in 4 of 600
 /// one-hour tactical records (seeds 23001-23200) where K is far below detection, and was reported at +330 % to
 /// +690 % with an interval excluding the truth (docs/calibration.md, "Session 17").
 bool isCloseRival(int selected_terms, int rival_terms, double score_gap, double aic_gap, const FitOptions& options);
