@@ -189,9 +189,9 @@ std::string spikesLine(const AxisAnalysis& a, const char* label, double factor, 
   return std::string(buf) + "\n";
 }
 
-/// The closest non-nested rival set of terms of a fit, its values and gaps, every close rival (isCloseRival), and the terms
-/// they make ambiguous (noise_model.hpp FitResult::rival_terms, FitResult::ambiguous; `ambiguous` as they apply to
-/// what is reported).
+/// The closest non-nested rival set of terms of a fit, its values and gaps, every close rival (isCloseRival), and the
+/// terms they make ambiguous (noise_model.hpp FitResult::rival_terms, FitResult::ambiguous; `ambiguous` as they apply
+/// to what is reported).
 void addRivalFields(YAML::Node* n, const FitResult& fit, const std::array<bool, kNumTerms>& ambiguous) {
   YAML::Node rival(YAML::NodeType::Sequence), amb(YAML::NodeType::Sequence);
   for (int t = 0; t < kNumTerms; ++t) {
