@@ -310,6 +310,29 @@ TEST(NoiseModel, SwapMustBeWonByAnEntrysWorth) {
   EXPECT_GE(swaps, 2);  // the rule must have been exercised
 }
 
+// isCloseRival itself, case by case (FitOptions' penalties: 4 per term, 6 for the ramp): within kRivalGap on either
+// scale always; a swap within the swapped-out term's penalty in chi-squared (the AIC gap), strictly below; a ramp
+// swapped out needs 6, not the score gap's 8; a rival of another size only within kRivalGap.
+TEST(NoiseModel, CloseRivalRuleCaseByCase) {
+  const FitOptions o;
+  const int N = 1 << kAngleRandomWalk, B = 1 << kBiasInstability, K = 1 << kRateRandomWalk, R = 1 << kRateRamp;
+  const int Q = 1 << kQuantization;
+  EXPECT_TRUE(isCloseRival(N | K, N | B, 1.9, 1.9, o));     // within 2
+  EXPECT_TRUE(isCloseRival(N | K, N | B, 3.0, 3.0, o));     // a swap within K's 4
+  EXPECT_FALSE(isCloseRival(N | K, N | B, 4.0, 4.0, o));    // not within: strictly below
+  EXPECT_FALSE(isCloseRival(N | K, N | B, 5.0, 5.0, o));
+  EXPECT_TRUE(isCloseRival(N | R, N | K, 3.5, 5.5, o));     // the ramp swapped out: 6 in chi-squared
+  EXPECT_FALSE(isCloseRival(N | R, N | K, 4.5, 6.5, o));    // score gap 4.5 < 6, but chi-squared 6.5 is not
+  EXPECT_FALSE(isCloseRival(N | K, N | R, 7.5, 5.5, o));    // K swapped out: 4, whatever the ramp costs
+  EXPECT_TRUE(isCloseRival(N | K, N | R, 5.5, 3.5, o));
+  EXPECT_FALSE(isCloseRival(N | K, N | B | R, 5.0, 3.0, o));  // another size: kRivalGap only
+  EXPECT_TRUE(isCloseRival(N | K, N | B | R, 5.0, 1.5, o));   // on AIC's side
+  EXPECT_FALSE(isCloseRival(N | B | K, Q | N | B, 5.06, 5.06, o));  // validation's consumer record (seed 24019)
+  FitOptions heavy;
+  heavy.term_penalty = 9.0;  // the limit follows the options' penalty
+  EXPECT_TRUE(isCloseRival(N | K, N | B, 8.0, 8.0, heavy));
+}
+
 // The same rule through the wavelet split (its B, K, R come from the denoised part's fit): a dithered MEMS-like gyro
 // with every term (Q 2 arcsec, N 0.15 deg/sqrt(h), B 2 deg/h, K 3 deg/h/sqrt(h), R 10 deg/h^2; 1 h at 200 Hz;
 // coverage_study's held-out class all5, seed 5), where N+B scores within 2 of the selected N+K. K is reported as a

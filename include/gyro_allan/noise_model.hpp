@@ -128,6 +128,7 @@ struct FitResult {
   double rival_score_gap = std::numeric_limits<double>::infinity();  ///< the closest rival's score difference
   double rival_aic_gap = std::numeric_limits<double>::infinity();    ///< ... and its AIC difference
   std::vector<int> close_rival_terms;  ///< every close rival (isCloseRival), as bit sets (the closest first)
+  std::vector<double> close_rival_gaps;  ///< their gaps (as rival_gap), in the same order
   std::array<double, kNumTerms> rival_values{{0, 0, 0, 0, 0}};  ///< the rival's least-squares coefficients
   /// Terms a rival tells otherwise, for every close rival (isCloseRival; not only the closest): a term the search
   /// selected and the rival does without is reported unsupported in terms_corrected (value 0, interval from 0), a
@@ -148,7 +149,8 @@ struct FitResult {
 /// differ between sets of different size, or where only one has the ramp (N + R against N + B: the score gap is
 /// AIC's + 2); a rival counts when it is within 2 on either: on the score (a smaller
 /// rival, which the heavier charge favours) or on AIC (a larger one: e.g. N + B + R fitting as well in chi-squared as
-/// the N + K that parsimony chose). Not tuned on the coverage study (docs/calibration.md, "Sessions 12-13").
+/// the N + K that parsimony chose). Not tuned on the coverage study (docs/calibration.md, "Sessions 12-13"). A rival
+/// of the same size also counts within a larger chi-squared difference (isCloseRival).
 constexpr double kRivalGap = 2.0;
 
 /// Whether the non-nested rival `rival_terms` (a bit set, 1 << term) counts as close to the selection
@@ -157,9 +159,9 @@ constexpr double kRivalGap = 2.0;
 /// chi-squared difference (its AIC gap) below the entry penalty (FitOptions::term_penalty, ramp_penalty) of a term
 /// the selection has and the rival lacks. Between sets of equal size AIC decides by chi-squared alone, and a term
 /// claimed over a swap must have won it by what the same term must save to enter a nested set (a ramp 6: K is
-/// preferred unless the data demand the ramp). With kRivalGap alone, N + K won over N + B by 2-3 in 4 of 600
-/// one-hour tactical records (seeds 23001-23200) where K is far below detection, and was reported at +330 % to
-/// +690 % with an interval excluding the truth (docs/calibration.md, "Session 17").
+/// preferred unless the data demand the ramp). With kRivalGap alone, N + K won over N + B by 2.3-3.2 in 4 of 400
+/// one-hour tactical and tactical-ramp records (200 Hz, seeds 23001-23200) where K is far below detection, and was
+/// reported at +330 % to +690 % with an interval excluding the truth (docs/calibration.md, "Session 17").
 bool isCloseRival(int selected_terms, int rival_terms, double score_gap, double aic_gap, const FitOptions& options);
 
 /// A larger set of terms (the selection plus one or more terms it left out) within this of the selection on AIC

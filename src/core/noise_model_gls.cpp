@@ -348,6 +348,7 @@ struct GlsFit {
                      [](const auto& a, const auto& b) { return a.gap < b.gap; });
     for (auto& cr : close_rivals) {
       r.close_rival_terms.push_back(cr.terms);
+      r.close_rival_gaps.push_back(cr.gap);
       cr.weights = fits[cr.index];
     }
     std::stable_sort(close_supersets.begin(), close_supersets.end(),
