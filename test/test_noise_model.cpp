@@ -272,7 +272,7 @@ TEST(NoiseModel, CloseRivalMakesTheTermsItDisagreesOnAmbiguous) {
 // deg/sqrt(h), B 0.8 deg/h, K 0.5 deg/h/sqrt(h); 1 h at 20 Hz, seeds 7901-7960): in every record whose closest rival
 // is a swap trailing by 2 to 4, the term it swaps out is reported as a bound (value 0, interval from 0) and the
 // swapped-in term's interval reaches the rival's value. Before session 17 those terms were claimed (B at its value,
-// or a K far below detection: +330 % to +690 % in 4 of 600 such records at 200 Hz).
+// or a K far below detection: +330 % to +690 % in 4 of 400 tactical and tactical-ramp records at 200 Hz).
 TEST(NoiseModel, SwapMustBeWonByAnEntrysWorth) {
   const FitOptions opt;
   int swaps = 0, checked_out = 0, checked_in = 0;

@@ -18,6 +18,11 @@ namespace {
 
 constexpr double kMisfitP = 0.01;        // below this chi-squared p-value the sigmas are inflated by sqrt(chi2/dof)
 
+/// What an IEEE term must save in chi-squared to enter the selection (FitOptions: the ramp dearer).
+double entryPenalty(int term, const FitOptions& options) {
+  return term == kRateRamp ? options.ramp_penalty : options.term_penalty;
+}
+
 /// Octave-spaced subset: a denser grid's neighbours share most of their data (correlation > 0.9) and make the
 /// covariance near-singular, while adding almost no information.
 constexpr double kMinRatio = 1.9;
@@ -221,9 +226,7 @@ struct GlsFit {
   GlsFit(const DeviationCurve& curve_, const FitOptions& options_, const std::vector<ExtraTerm>& extra_)
       : curve(curve_), options(options_), extra(extra_) {}
 
-  double penalty(int col) const {
-    return P.term[static_cast<size_t>(col)] == kRateRamp ? options.ramp_penalty : options.term_penalty;
-  }
+  double penalty(int col) const { return entryPenalty(P.term[static_cast<size_t>(col)], options); }
 
   // The result's fixed fields and per-point arrays.
   void initResult() {
@@ -645,7 +648,7 @@ bool isCloseRival(int selected_terms, int rival_terms, double score_gap, double 
   double entry = 0.0;  // the dearest entry among the terms the swap takes out
   for (int t = 0; t < kNumTerms; ++t)
     if (sel[static_cast<size_t>(t)] && !rival[static_cast<size_t>(t)])
-      entry = std::max(entry, t == kRateRamp ? options.ramp_penalty : options.term_penalty);
+      entry = std::max(entry, entryPenalty(t, options));
   return aic_gap < entry;
 }
 
