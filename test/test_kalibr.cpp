@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <random>
 #include <sstream>
 #include <stdexcept>
@@ -59,6 +60,28 @@ TEST(Kalibr, YamlHasKalibrKeysInSiAndCommentsBounds) {
   size_t n = 0;
   for (size_t pos = text.find("NOT SUPPORTED"); pos != std::string::npos; pos = text.find("NOT SUPPORTED", pos + 1)) ++n;
   EXPECT_EQ(n, 1u);
+  // ... with the 95 % upper end beside the 68 % one (bound() sets none: the 68 % end stands in); with a set hi95
+  // the comment carries it, by the same axis rule, and a bad axis's infinite one is left out.
+  EXPECT_NE(text.find("NOT SUPPORTED by the data: this is the upper end of its 68 % interval, the true value may be "
+                      "smaller; the 95 % upper end is 3.000000e-06"),
+            std::string::npos)
+      << text;
+  Coefficient k1 = bound(3e-6), k2 = bound(2e-6);
+  k1.hi95 = 4e-6;
+  k2.hi95 = 9e-6;  // the worst rule's 95 % figure is the largest 95 % end, here another axis's
+  const KalibrValue w = combineAxes({"x", "y"}, {k1, k2}, KalibrAxisRule::Worst);
+  EXPECT_DOUBLE_EQ(w.value, 3e-6);
+  EXPECT_DOUBLE_EQ(w.value95, 9e-6);
+  const KalibrValue m = combineAxes({"x", "y"}, {k1, k2}, KalibrAxisRule::Mean);
+  EXPECT_NEAR(m.value95, std::sqrt((16e-12 + 81e-12) / 2), 1e-18);
+  std::array<Coefficient, kNumTerms> g2 = g;
+  g2[kRateRandomWalk] = k1;
+  EXPECT_NE(kalibrYaml(kalibrParams({"x"}, {g2}, {}, {}, 100.0, "", KalibrAxisRule::Worst))
+                .find("the 95 % upper end is 4.000000e-06"),
+            std::string::npos);
+  g2[kRateRandomWalk].hi95 = std::numeric_limits<double>::infinity();
+  EXPECT_EQ(kalibrYaml(kalibrParams({"x"}, {g2}, {}, {}, 100.0, "", KalibrAxisRule::Worst)).find("95 %"),
+            std::string::npos);
   // No accelerometer: keys commented out, not invented.
   const YAML::Node y2 = YAML::Load(kalibrYaml(kalibrParams({"x"}, {g}, {}, {}, 100.0, "", KalibrAxisRule::Worst)));
   EXPECT_FALSE(y2["accelerometer_noise_density"]);

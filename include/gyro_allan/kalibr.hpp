@@ -30,6 +30,11 @@ struct KalibrValue {
   bool bound = false;
   std::string axis;
   bool present = false;  ///< false: no data for this sensor (e.g. CSV input has no accelerometer)
+  /// The same rule with each unsupported axis's 95 % upper end (Coefficient::hi95) in place of its 68 % one; written
+  /// beside a bound. A dropped term's 68 % upper end lies below a third of the truth in ~1 % of simulated records
+  /// with a rate random walk (a downward fluctuation; docs/calibration.md, "Session 18"), its 95 % one in none.
+  /// +inf when an axis has no finite 95 % upper end (a bad fit); the comment then omits it.
+  double value95 = 0;
 };
 
 /// The quality verdict of one axis behind the numbers (quality.hpp), written as a comment line.

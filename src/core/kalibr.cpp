@@ -1,6 +1,7 @@
 // Kalibr imu.yaml from the IEEE 952 fit: N and K are Kalibr's continuous-time densities sigma_g and sigma_bg as is.
 #include "gyro_allan/kalibr.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <sstream>
@@ -43,12 +44,15 @@ KalibrValue combineAxes(const std::vector<std::string>& axes, const std::vector<
   KalibrValue v;
   if (coefficients.empty()) return v;
   v.present = true;
-  double sum_sq = 0;
+  double sum_sq = 0, sum_sq95 = 0, max95 = 0;
   for (size_t i = 0; i < coefficients.size(); ++i) {
     const Coefficient& c = coefficients[i];
     const double x = c.supported ? c.value : c.sigma;  // unsupported: the bound is what it could be
     if (!std::isfinite(x) || x < 0) throw std::invalid_argument("combineAxes: axis " + axes[i] + " has no valid value");
     sum_sq += x * x;
+    const double x95 = c.supported ? c.value : std::max(c.hi95, x);  // at least the 68 % end (an unset hi95 is 0)
+    sum_sq95 += x95 * x95;
+    max95 = std::max(max95, x95);
     if (rule == KalibrAxisRule::Worst && (i == 0 || x > v.value)) {
       v.value = x;
       v.bound = !c.supported;
@@ -56,8 +60,10 @@ KalibrValue combineAxes(const std::vector<std::string>& axes, const std::vector<
     }
     if (rule == KalibrAxisRule::Mean && !c.supported) v.bound = true;
   }
+  v.value95 = max95;
   if (rule == KalibrAxisRule::Mean) {
     v.value = std::sqrt(sum_sq / static_cast<double>(coefficients.size()));
+    v.value95 = std::sqrt(sum_sq95 / static_cast<double>(coefficients.size()));
     v.axis = "rms";
   }
   return v;
@@ -108,7 +114,13 @@ void line(std::ostringstream& o, const char* key, const KalibrValue& v, const ch
   o << key << ": " << buf << "  # " << unit << ", " << source;
   if (v.axis == "rms") o << ", quadratic mean over axes";
   else o << ", axis " << v.axis << " (largest)";
-  if (v.bound) o << "; NOT SUPPORTED by the data: this is the upper end of its 68 % interval, the true value may be smaller";
+  if (v.bound) {
+    o << "; NOT SUPPORTED by the data: this is the upper end of its 68 % interval, the true value may be smaller";
+    if (std::isfinite(v.value95)) {
+      std::snprintf(buf, sizeof buf, "%.6e", v.value95);
+      o << "; the 95 % upper end is " << buf;
+    }
+  }
   if (!bad.empty()) o << "; BAD FIT on axis " << bad << ": not a measurement, see the quality lines above";
   o << "\n";
 }
