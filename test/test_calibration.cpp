@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <initializer_list>
 #include <thread>
 
 #include "gyro_allan/allan.hpp"
@@ -20,15 +21,33 @@ namespace {
 
 constexpr double kDeg = M_PI / 180.0;
 
+// Intervals holding the truth among a set of cases.
+struct Counts {
+  int cases = 0, in68 = 0, in95 = 0;
+  void add(int i68, int i95) {
+    ++cases;
+    in68 += i68;
+    in95 += i95;
+  }
+};
+
 struct Tally {
-  int cases = 0, in68 = 0, in95 = 0;              // terms with truth > 0
-  int sel_cases = 0, sel_in68 = 0, sel_in95 = 0;  // ... of them supported: [lo, hi]
-  int drop_cases = 0, drop_in68 = 0, drop_in95 = 0;  // ... not supported: [lo (usually 0), hi]
-  int term_drop_cases[kNumTerms] = {}, term_drop_in68[kNumTerms] = {};  // ... not supported, per term
-  int term_drop_in95[kNumTerms] = {};
-  int zeros = 0, phantom = 0;                     // terms with truth 0
-  double n_z2 = 0;                                // sum of ((N - truth) / sigma)^2
+  Counts all, sel;              // terms with truth > 0; ... of them supported: [lo, hi]
+  Counts drop_term[kNumTerms];  // ... not supported, per term: [lo (usually 0), hi]
+  int zeros = 0, phantom = 0;   // terms with truth 0
+  double n_z2 = 0;              // sum of ((N - truth) / sigma)^2
   int n_cases = 0;
+  // The unsupported terms of `terms` pooled (all five by default).
+  Counts dropped(std::initializer_list<int> terms = {kQuantization, kAngleRandomWalk, kBiasInstability,
+                                                    kRateRandomWalk, kRateRamp}) const {
+    Counts c;
+    for (int k : terms) {
+      c.cases += drop_term[k].cases;
+      c.in68 += drop_term[k].in68;
+      c.in95 += drop_term[k].in95;
+    }
+    return c;
+  }
 };
 
 // Runs the plain joint fit (oadev, GLS) on `seeds` records of one class and tallies every term.
@@ -59,17 +78,8 @@ void runClass(const AxisNoise& noise, double rate_hz, double duration_s, uint64_
       if (truth[k] > 0) {
         const int in68 = (truth[k] >= co.lo68 && truth[k] <= co.hi68) ? 1 : 0;
         const int in95 = (truth[k] >= co.lo95 && truth[k] <= co.hi95) ? 1 : 0;
-        ++t->cases;
-        t->in68 += in68;
-        t->in95 += in95;
-        (co.supported ? t->sel_cases : t->drop_cases) += 1;
-        (co.supported ? t->sel_in68 : t->drop_in68) += in68;
-        (co.supported ? t->sel_in95 : t->drop_in95) += in95;
-        if (!co.supported) {
-          ++t->term_drop_cases[k];
-          t->term_drop_in68[k] += in68;
-          t->term_drop_in95[k] += in95;
-        }
+        t->all.add(in68, in95);
+        (co.supported ? t->sel : t->drop_term[k]).add(in68, in95);
       } else {
         ++t->zeros;
         t->phantom += co.supported ? 1 : 0;
@@ -105,25 +115,28 @@ TEST(Calibration, IntervalsCoverAndNoPhantomTerms) {
   rlg.angle_random_walk = 0.002 / 60 * kDeg;
   rlg.bias_instability = 0.003 / 3600 * kDeg;
   runClass(rlg, 100, 1800, 7101, 30, &t);
-  ASSERT_EQ(t.cases, 180);
+  const Counts& a = t.all;
+  const Counts& sel = t.sel;
+  const Counts d = t.dropped();
+  ASSERT_EQ(a.cases, 180);
   std::printf("coverage 68 %%: %d/%d, 95 %%: %d/%d (supported terms %d/%d, %d/%d; not supported %d/%d, %d/%d); "
               "phantom terms %d/%d\n",
-              t.in68, t.cases, t.in95, t.cases, t.sel_in68, t.sel_cases, t.sel_in95, t.sel_cases, t.drop_in68,
-              t.drop_cases, t.drop_in95, t.drop_cases, t.phantom, t.zeros);
+              a.in68, a.cases, a.in95, a.cases, sel.in68, sel.cases, sel.in95, sel.cases, d.in68, d.cases, d.in95,
+              d.cases, t.phantom, t.zeros);
   // Supported terms: intervals conditional on the selection (selective.hpp) hold the truth at their nominal rate.
   // Pooled over terms (cases within a record are not independent; the 3-sigma band still allows for it).
-  expectBinomial(t.sel_in68, t.sel_cases, 0.683, "68 % intervals of supported terms holding the truth");
-  EXPECT_GE(static_cast<double>(t.sel_in95) / t.sel_cases, 0.95 - 3 * std::sqrt(0.95 * 0.05 / t.sel_cases))
-      << "95 % intervals of supported terms holding the truth: " << t.sel_in95 << "/" << t.sel_cases;
+  expectBinomial(sel.in68, sel.cases, 0.683, "68 % intervals of supported terms holding the truth");
+  EXPECT_GE(static_cast<double>(sel.in95) / sel.cases, 0.95 - 3 * std::sqrt(0.95 * 0.05 / sel.cases))
+      << "95 % intervals of supported terms holding the truth: " << sel.in95 << "/" << sel.cases;
   // Terms not supported: the 68 % interval is the unified (Feldman-Cousins) one of the dropped estimate's truncated
   // distribution, at its nominal rate also where the truth is far below detection (the 30-min records' B and K);
   // the 95 % one is the one-sided power-constrained bound: no under-coverage. Overall, 68 % at nominal too.
-  expectBinomial(t.drop_in68, t.drop_cases, 0.683, "68 % intervals of unsupported terms holding the truth");
-  expectBinomial(t.in68, t.cases, 0.683, "68 % intervals holding the truth");
-  EXPECT_GE(static_cast<double>(t.drop_in95) / t.drop_cases, 0.95 - 3 * std::sqrt(0.95 * 0.05 / t.drop_cases))
-      << "95 % bounds of unsupported terms holding the truth: " << t.drop_in95 << "/" << t.drop_cases;
-  EXPECT_GE(static_cast<double>(t.in95) / t.cases, 0.95 - 3 * std::sqrt(0.95 * 0.05 / t.cases))
-      << "95 % intervals holding the truth: " << t.in95 << "/" << t.cases;
+  expectBinomial(d.in68, d.cases, 0.683, "68 % intervals of unsupported terms holding the truth");
+  expectBinomial(a.in68, a.cases, 0.683, "68 % intervals holding the truth");
+  EXPECT_GE(static_cast<double>(d.in95) / d.cases, 0.95 - 3 * std::sqrt(0.95 * 0.05 / d.cases))
+      << "95 % bounds of unsupported terms holding the truth: " << d.in95 << "/" << d.cases;
+  EXPECT_GE(static_cast<double>(a.in95) / a.cases, 0.95 - 3 * std::sqrt(0.95 * 0.05 / a.cases))
+      << "95 % intervals holding the truth: " << a.in95 << "/" << a.cases;
   // Phantom terms: the selection penalty 4 (6 for the ramp) aims at <= 5 % per absent term.
   EXPECT_LE(static_cast<double>(t.phantom) / t.zeros, 0.05 + 3 * std::sqrt(0.05 * 0.95 / t.zeros))
       << "absent terms reported supported: " << t.phantom << "/" << t.zeros;
@@ -213,13 +226,12 @@ TEST(Calibration, DroppedLongTauTermsCoverAtTheirStatedRate) {
   a.rate_ramp = 2.0 / 3600 / 3600 * kDeg;
   Tally t;
   runClass(a, 200, 3600, 8301, 120, &t);
-  const int n = t.term_drop_cases[kRateRandomWalk] + t.term_drop_cases[kRateRamp];
-  const int in68 = t.term_drop_in68[kRateRandomWalk] + t.term_drop_in68[kRateRamp];
-  const int in95 = t.term_drop_in95[kRateRandomWalk] + t.term_drop_in95[kRateRamp];
-  std::printf("dropped K: 68 %% %d/%d, 95 %% %d/%d; dropped R: 68 %% %d/%d, 95 %% %d/%d\n",
-              t.term_drop_in68[kRateRandomWalk], t.term_drop_cases[kRateRandomWalk], t.term_drop_in95[kRateRandomWalk],
-              t.term_drop_cases[kRateRandomWalk], t.term_drop_in68[kRateRamp], t.term_drop_cases[kRateRamp],
-              t.term_drop_in95[kRateRamp], t.term_drop_cases[kRateRamp]);
+  const Counts& k = t.drop_term[kRateRandomWalk];
+  const Counts& r = t.drop_term[kRateRamp];
+  const Counts d = t.dropped({kRateRandomWalk, kRateRamp});
+  const int n = d.cases, in68 = d.in68, in95 = d.in95;
+  std::printf("dropped K: 68 %% %d/%d, 95 %% %d/%d; dropped R: 68 %% %d/%d, 95 %% %d/%d\n", k.in68, k.cases, k.in95,
+              k.cases, r.in68, r.cases, r.in95, r.cases);
   ASSERT_GE(n, 200);  // K and R are dropped in nearly every record
   expectBinomial(in68, n, 0.683, "68 % intervals of dropped K and R holding the truth");
   EXPECT_GE(static_cast<double>(in95) / n, 0.95 - 3 * std::sqrt(0.95 * 0.05 / n))
