@@ -33,7 +33,8 @@ struct KalibrValue {
   /// The same rule with each unsupported axis's 95 % upper end (Coefficient::hi95) in place of its 68 % one; written
   /// beside a bound. A dropped term's 68 % upper end lies below a third of the truth in ~1 % of simulated records
   /// with a rate random walk (a downward fluctuation; docs/calibration.md, "Session 18"), its 95 % one in none.
-  /// +inf when an axis has no finite 95 % upper end (a bad fit); the comment then omits it.
+  /// Not finite when an axis has no finite 95 % upper end (+inf on a bad fit, NaN without intervals); the comment
+  /// then omits it.
   double value95 = 0;
 };
 
