@@ -103,6 +103,16 @@ AxisNoise issueMems() {
   return mems;
 }
 
+// The coverage study's tactical_ramp class: N 0.1 deg/sqrt(h), B 0.8 deg/h, K 0.5 deg/h/sqrt(h), R 2 deg/h^2.
+AxisNoise tacticalWithRamp() {
+  AxisNoise a;
+  a.angle_random_walk = 0.1 / 60 * kDeg;
+  a.bias_instability = 0.8 / 3600 * kDeg;
+  a.rate_random_walk = 0.5 / 3600 / 60 * kDeg;
+  a.rate_ramp = 2.0 / 3600 / 3600 * kDeg;
+  return a;
+}
+
 }  // namespace
 
 TEST(Calibration, IntervalsCoverAndNoPhantomTerms) {
@@ -220,11 +230,7 @@ TEST(Calibration, BiasInstabilityCoversWhereRateRandomWalkIsBelowEntry) {
 // 0.78-0.83 per seed set of 40-100 records before it (docs/calibration.md, "Session 18"). The band guards against
 // drifts of 10 points or more; it could not tell session 18's rejected 0.60 level (77/120, 79/120).
 TEST(Calibration, DroppedLongTauTermsCoverAtTheirStatedRate) {
-  AxisNoise a;
-  a.angle_random_walk = 0.1 / 60 * kDeg;
-  a.bias_instability = 0.8 / 3600 * kDeg;
-  a.rate_random_walk = 0.5 / 3600 / 60 * kDeg;
-  a.rate_ramp = 2.0 / 3600 / 3600 * kDeg;
+  const AxisNoise a = tacticalWithRamp();
   Tally t;
   runClass(a, 200, 3600, 8301, 120, &t);
   const Counts& k = t.drop_term[kRateRandomWalk];
@@ -245,11 +251,7 @@ TEST(Calibration, DroppedLongTauTermsCoverAtTheirStatedRate) {
 // 68 % intervals must hold the truth at the nominal rate within the binomial band, its 95 % bounds at least 95 %.
 // 60 records, simulateAxis seeds 8501..; measured 47/60 (95 %: 60/60), and 22/60 before the joint estimate.
 TEST(Calibration, DroppedRandomWalkBesideADroppedRampCovers) {
-  AxisNoise a;
-  a.angle_random_walk = 0.1 / 60 * kDeg;
-  a.bias_instability = 0.8 / 3600 * kDeg;
-  a.rate_random_walk = 0.5 / 3600 / 60 * kDeg;
-  a.rate_ramp = 2.0 / 3600 / 3600 * kDeg;
+  const AxisNoise a = tacticalWithRamp();
   Tally t;
   runClass(a, 50, 4 * 3600, 8501, 60, &t);
   const Counts& k = t.drop_term[kRateRandomWalk];
