@@ -476,8 +476,8 @@ struct GlsFit {
   // a weak term is selected only when it came out high, and its plain least-squares value was biased up (+50 %
   // for a rate random walk near the detection limit). A selected term whose corrected value is 0 is dropped.
   // The columns whose uncertainty counts: for a selected term, the selected terms and those the full model had (a
-  // term below the selection threshold still trades with its neighbours); for a dropped term, the selected terms and
-  // itself (below).
+  // term below the selection threshold still trades with its neighbours); for a dropped term, the selected terms,
+  // itself and a dropped partner (jointEstimate; below).
 
   // sd of the estimate of column `col` (at position pos_in_cols of cols) when its true weight is x.
   double sdAt(const std::vector<int>& cols, size_t pos_in_cols, int col, double x) const {
@@ -577,10 +577,11 @@ struct GlsFit {
     }
     // A dropped term's estimate is its value with the term added to the selected set: the chi-squared it would save
     // there is what the subset search compared with its penalty, so this is the estimate the truncation (x < T)
-    // describes. The other dropped terms whose signal it can take up are estimated beside it (jointEstimate);
-    // the variance model then has their columns too, so the interval carries the trade. (Session 5 added every
-    // full-model column, the selected terms' trading partners included: K's estimate came out at 0.05-0.5 of the
-    // truth in mean on 1 h records, and its 68 % coverage was 0.84.)
+    // describes. A dropped K or R is estimated with the other one free too when both are dropped (jointEstimate);
+    // the variance model then has both columns, so the interval carries the trade, and the truncation is only
+    // approximately the search's event (it scored K with R out), at a threshold from the pair's sd. (Session 5
+    // added every full-model column, the selected terms' trading partners included: K's estimate came out at
+    // 0.05-0.5 of the truth in mean on 1 h records, and its 68 % coverage was 0.84.)
     for (int col = 0; col < ncol; ++col) {
       if (c[col] > 0) continue;
       std::vector<int> cols = pos;
