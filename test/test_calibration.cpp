@@ -94,6 +94,19 @@ void expectBinomial(int hits, int n, double p, const char* what) {
   EXPECT_NEAR(static_cast<double>(hits) / n, p, 3 * sd) << what << ": " << hits << "/" << n;
 }
 
+// A 95 % interval holding the truth at least that often, less 3 binomial standard deviations.
+void expectAtLeast95(int hits, int n, const char* what) {
+  EXPECT_GE(static_cast<double>(hits) / n, 0.95 - 3 * std::sqrt(0.95 * 0.05 / n)) << what << ": " << hits << "/" << n;
+}
+
+// The dropped K's and R's coverage of a run, printed.
+void printDroppedLongTau(const Tally& t) {
+  const Counts& k = t.drop_term[kRateRandomWalk];
+  const Counts& r = t.drop_term[kRateRamp];
+  std::printf("dropped K: 68 %% %d/%d, 95 %% %d/%d; dropped R: 68 %% %d/%d, 95 %% %d/%d\n", k.in68, k.cases, k.in95,
+              k.cases, r.in68, r.cases, r.in95, r.cases);
+}
+
 // The issue's MEMS example: N, B, K declared; Q and R absent.
 AxisNoise issueMems() {
   AxisNoise mems;
@@ -136,17 +149,14 @@ TEST(Calibration, IntervalsCoverAndNoPhantomTerms) {
   // Supported terms: intervals conditional on the selection (selective.hpp) hold the truth at their nominal rate.
   // Pooled over terms (cases within a record are not independent; the 3-sigma band still allows for it).
   expectBinomial(sel.in68, sel.cases, 0.683, "68 % intervals of supported terms holding the truth");
-  EXPECT_GE(static_cast<double>(sel.in95) / sel.cases, 0.95 - 3 * std::sqrt(0.95 * 0.05 / sel.cases))
-      << "95 % intervals of supported terms holding the truth: " << sel.in95 << "/" << sel.cases;
+  expectAtLeast95(sel.in95, sel.cases, "95 % intervals of supported terms holding the truth");
   // Terms not supported: the 68 % interval is the unified (Feldman-Cousins) one of the dropped estimate's truncated
   // distribution, at its nominal rate also where the truth is far below detection (the 30-min records' B and K);
   // the 95 % one is the one-sided power-constrained bound: no under-coverage. Overall, 68 % at nominal too.
   expectBinomial(d.in68, d.cases, 0.683, "68 % intervals of unsupported terms holding the truth");
   expectBinomial(a.in68, a.cases, 0.683, "68 % intervals holding the truth");
-  EXPECT_GE(static_cast<double>(d.in95) / d.cases, 0.95 - 3 * std::sqrt(0.95 * 0.05 / d.cases))
-      << "95 % bounds of unsupported terms holding the truth: " << d.in95 << "/" << d.cases;
-  EXPECT_GE(static_cast<double>(a.in95) / a.cases, 0.95 - 3 * std::sqrt(0.95 * 0.05 / a.cases))
-      << "95 % intervals holding the truth: " << a.in95 << "/" << a.cases;
+  expectAtLeast95(d.in95, d.cases, "95 % bounds of unsupported terms holding the truth");
+  expectAtLeast95(a.in95, a.cases, "95 % intervals holding the truth");
   // Phantom terms: the selection penalty 4 (6 for the ramp) aims at <= 5 % per absent term.
   EXPECT_LE(static_cast<double>(t.phantom) / t.zeros, 0.05 + 3 * std::sqrt(0.05 * 0.95 / t.zeros))
       << "absent terms reported supported: " << t.phantom << "/" << t.zeros;
@@ -217,7 +227,7 @@ TEST(Calibration, BiasInstabilityCoversWhereRateRandomWalkIsBelowEntry) {
   EXPECT_GE(widened, 3);            // the rule acts in this class
   EXPECT_EQ(ambiguous, 0);          // so that `terms` against terms_corrected is the widening alone
   expectBinomial(in68, n, 0.683, "B's 68 % intervals holding the truth");
-  EXPECT_GE(static_cast<double>(in95) / n, 0.95 - 3 * std::sqrt(0.95 * 0.05 / n)) << "B's 95 %: " << in95 << "/" << n;
+  expectAtLeast95(in95, n, "B's 95 %");
   EXPECT_GT(in68, plain68);
 }
 
@@ -233,15 +243,11 @@ TEST(Calibration, DroppedLongTauTermsCoverAtTheirStatedRate) {
   const AxisNoise a = tacticalWithRamp();
   Tally t;
   runClass(a, 200, 3600, 8301, 120, &t);
-  const Counts& k = t.drop_term[kRateRandomWalk];
-  const Counts& r = t.drop_term[kRateRamp];
   const Counts d = t.dropped({kRateRandomWalk, kRateRamp});
-  std::printf("dropped K: 68 %% %d/%d, 95 %% %d/%d; dropped R: 68 %% %d/%d, 95 %% %d/%d\n", k.in68, k.cases, k.in95,
-              k.cases, r.in68, r.cases, r.in95, r.cases);
+  printDroppedLongTau(t);
   ASSERT_GE(d.cases, 200);  // K and R are dropped in nearly every record
   expectBinomial(d.in68, d.cases, 0.683, "68 % intervals of dropped K and R holding the truth");
-  EXPECT_GE(static_cast<double>(d.in95) / d.cases, 0.95 - 3 * std::sqrt(0.95 * 0.05 / d.cases))
-      << "95 % bounds of dropped K and R: " << d.in95 << "/" << d.cases;
+  expectAtLeast95(d.in95, d.cases, "95 % bounds of dropped K and R");
 }
 
 // The tactical class with a ramp (as above) over 4 h at 50 Hz, where K and R are both dropped in most records and
@@ -255,11 +261,8 @@ TEST(Calibration, DroppedRandomWalkBesideADroppedRampCovers) {
   Tally t;
   runClass(a, 50, 4 * 3600, 8501, 60, &t);
   const Counts& k = t.drop_term[kRateRandomWalk];
-  const Counts& r = t.drop_term[kRateRamp];
-  std::printf("dropped K: 68 %% %d/%d, 95 %% %d/%d; dropped R: 68 %% %d/%d, 95 %% %d/%d\n", k.in68, k.cases, k.in95,
-              k.cases, r.in68, r.cases, r.in95, r.cases);
+  printDroppedLongTau(t);
   ASSERT_GE(k.cases, 40);  // K is dropped in most records
   expectBinomial(k.in68, k.cases, 0.683, "68 % intervals of the dropped K holding the truth");
-  EXPECT_GE(static_cast<double>(k.in95) / k.cases, 0.95 - 3 * std::sqrt(0.95 * 0.05 / k.cases))
-      << "95 % bounds of the dropped K: " << k.in95 << "/" << k.cases;
+  expectAtLeast95(k.in95, k.cases, "95 % bounds of the dropped K");
 }
