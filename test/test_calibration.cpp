@@ -34,6 +34,7 @@ struct Counts {
 struct Tally {
   Counts all, sel;              // terms with truth > 0; ... of them supported: [lo, hi]
   Counts drop_term[kNumTerms];  // ... not supported, per term: [lo (usually 0), hi]
+  Counts sel_term[kNumTerms];   // ... supported, per term
   int zeros = 0, phantom = 0;   // terms with truth 0
   double n_z2 = 0;              // sum of ((N - truth) / sigma)^2
   int n_cases = 0;
@@ -80,6 +81,7 @@ void runClass(const AxisNoise& noise, double rate_hz, double duration_s, uint64_
         const int in95 = (truth[k] >= co.lo95 && truth[k] <= co.hi95) ? 1 : 0;
         t->all.add(in68, in95);
         (co.supported ? t->sel : t->drop_term[k]).add(in68, in95);
+        if (co.supported) t->sel_term[k].add(in68, in95);
       } else {
         ++t->zeros;
         t->phantom += co.supported ? 1 : 0;
@@ -265,4 +267,26 @@ TEST(Calibration, DroppedRandomWalkBesideADroppedRampCovers) {
   ASSERT_GE(k.cases, 40);  // K is dropped in most records
   expectBinomial(k.in68, k.cases, 0.683, "68 % intervals of the dropped K holding the truth");
   expectAtLeast95(k.in95, k.cases, "95 % bounds of the dropped K");
+}
+
+// A gyro whose rate ramp is plain but whose rate random walk is not (N 0.15 deg/sqrt(h), K 3 deg/h/sqrt(h), R 20
+// deg/h^2; 2 h at 100 Hz): R is selected and K dropped in most records. The ramp's Allan estimates scatter through
+// the rate random walk's wander (a cross term that grows with K), and the full model's K, which the ramp's interval
+// was computed at, is 0 in most such records: its 95 % interval held the truth in 69 of 100 records (coverage_study,
+// seeds 28001-28100). Since session 21 a selected ramp's 95 % interval allows K up to the upper end of K's 68 %
+// interval (noise_model_gls.cpp, boundRampByRandomWalk). The supported R's 95 % intervals must hold the truth at least
+// 95 % of the time, less the binomial allowance. Its 68 % intervals still under-cover (docs/calibration.md, "Session
+// 21"), so they are printed, not checked. 60 records, simulateAxis seeds 8601..
+TEST(Calibration, SelectedRampBesideADroppedRandomWalkCoversAt95) {
+  AxisNoise a;
+  a.angle_random_walk = 0.15 / 60 * kDeg;
+  a.rate_random_walk = 3.0 / 3600 / 60 * kDeg;
+  a.rate_ramp = 20.0 / 3600 / 3600 * kDeg;
+  Tally t;
+  runClass(a, 100, 2 * 3600, 8601, 60, &t);
+  const Counts& r = t.sel_term[kRateRamp];
+  std::printf("selected R: 68 %% %d/%d, 95 %% %d/%d; dropped K: 68 %% %d/%d\n", r.in68, r.cases, r.in95, r.cases,
+              t.drop_term[kRateRandomWalk].in68, t.drop_term[kRateRandomWalk].cases);
+  ASSERT_GE(r.cases, 40);  // R is selected in most records
+  expectAtLeast95(r.in95, r.cases, "95 % intervals of the selected R beside a dropped K");
 }

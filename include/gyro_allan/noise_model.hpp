@@ -140,6 +140,9 @@ struct FitResult {
   /// reach such a set's plain interval of the same term (kSupersetGap; bias instability only).
   std::vector<int> close_superset_terms;
   std::array<bool, kNumTerms> widened{{false, false, false, false, false}};
+  /// A selected rate ramp's 95 % interval in terms_corrected was widened to allow the rate random walk the record cannot
+  /// exclude (K at the upper end of its 68 % interval; the ramp's scatter grows steeply with K).
+  bool ramp_bounded_by_random_walk = false;
   bool intervals = true;  ///< false: fitted with FitOptions::intervals off (values only)
 };
 

@@ -514,6 +514,10 @@ AxisAnalysis AxisStages::finish() {
       a.notes.push_back(buf);
     }
   }
+  if (answerFit(a).ramp_bounded_by_random_walk && a.coefficients[kRateRamp].supported)
+    a.notes.push_back(
+        "rate ramp's 95 % interval widened: it allows the rate random walk this record cannot exclude (K at the upper "
+        "end of its 68 % interval), whose wander the ramp's estimate takes up");
   if (a.has_gmwm) gmwmCompare(&a.gmwm, a.oadev, a.fit.model_var, a.final_model_var);  // closed loop vs IEEE fits
   a.quality = assessQuality(a);
   if (unboundIntervalsIfBad(a.quality, &a.coefficients))

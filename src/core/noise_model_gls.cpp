@@ -410,6 +410,36 @@ struct GlsFit {
     }
   }
 
+  // A selected rate ramp beside a dropped rate random walk (FitResult::ramp_bounded_by_random_walk): its 95 % interval in
+  // terms_corrected reaches the ramp's plain interval (least-squares value -+ 1.96 sd) with the covariance at K's 68 %
+  // upper end instead of the full model's K. A ramp's Allan estimates scatter through the cross term 4 mu mu' Cov(d, d')
+  // (avar_covariance.hpp), which a rate random walk's wander makes large, so the ramp's sd depends steeply on K; the full
+  // model's K is 0 in most such records (K and R trade over the longest taus), and the ramp's 95 % interval held the
+  // truth in 69 of 100 records of a 2 h gyro with K = 3 deg/h/sqrt(h) and R = 20 deg/h^2 (docs/calibration.md,
+  // "Session 21").
+  void boundRampByRandomWalk() {
+    int r_col = -1, k_col = -1;
+    for (int col : ieee_cols) {
+      if (P.term[static_cast<size_t>(col)] == kRateRamp) r_col = col;
+      if (P.term[static_cast<size_t>(col)] == kRateRandomWalk) k_col = col;
+    }
+    Coefficient& cc = r.terms_corrected[kRateRamp];
+    if (!options.intervals || r_col < 0 || k_col < 0 || !(c[r_col] > 0) || c[k_col] > 0 || !cc.supported) return;
+    Eigen::VectorXd cm = c_full;
+    cm[k_col] = std::max(cm[k_col], inf[static_cast<size_t>(k_col)].est.hi68);
+    const Whitened wk = whiten(P, P.covariance(cm));
+    if (!wk.ok) return;
+    Eigen::VectorXd est;
+    Eigen::MatrixXd cov;
+    solveFree(wk, pos, &est, &cov);
+    const int k = static_cast<int>(std::find(pos.begin(), pos.end(), r_col) - pos.begin());
+    const double x = c[r_col], sd = std::sqrt(std::max(0.0, cov(k, k) * r.uncertainty_inflation));
+    const double lo95 = cc.lo95, hi95 = cc.hi95;
+    cc.lo95 = std::min(cc.lo95, std::sqrt(std::max(0.0, x - 1.96 * sd)));
+    cc.hi95 = std::max(cc.hi95, std::sqrt(x + 1.96 * sd));
+    r.ramp_bounded_by_random_walk = cc.lo95 != lo95 || cc.hi95 != hi95;
+  }
+
   // Larger sets of terms within kSupersetGap (noise_model.hpp): a selected B's interval in terms_corrected reaches the
   // larger set's plain interval of B, on the side of that set's value. After ambiguity(): a B a close rival does
   // without is a bound already (unsupported) and keeps the rival rule's interval. Only B: the term the study found
@@ -703,6 +733,7 @@ FitResult fitNoiseModelGls(const DeviationCurve& curve, const FitOptions& option
   g.coefficients();
   g.ambiguity(w);
   g.widenBySupersets(w);
+  g.boundRampByRandomWalk();
   g.modelCurve();
   g.r.ok = true;
   return g.r;
