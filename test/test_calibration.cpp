@@ -38,6 +38,7 @@ struct Tally {
   int zeros = 0, phantom = 0;   // terms with truth 0
   double n_z2 = 0;              // sum of ((N - truth) / sigma)^2
   int n_cases = 0;
+  int ramp_bounded = 0;         // fits whose ramp's 95 % interval allows a dropped K (ramp_bounded_by_random_walk)
   // The unsupported terms of `terms` pooled (all five by default).
   Counts dropped(std::initializer_list<int> terms = {kQuantization, kAngleRandomWalk, kBiasInstability,
                                                     kRateRandomWalk, kRateRamp}) const {
@@ -70,6 +71,7 @@ void runClass(const AxisNoise& noise, double rate_hz, double duration_s, uint64_
   th.join();
   for (const FitResult& f : fits) {
     ASSERT_TRUE(f.ok) << f.message;
+    t->ramp_bounded += f.ramp_bounded_by_random_walk ? 1 : 0;
     for (int k = 0; k < kNumTerms; ++k) {
       const Coefficient& co = f.terms_corrected[static_cast<size_t>(k)];
       if (k == kAngleRandomWalk && co.supported && co.sigma > 0) {
@@ -272,8 +274,8 @@ TEST(Calibration, DroppedRandomWalkBesideADroppedRampCovers) {
 // A gyro whose rate ramp is plain but whose rate random walk is not (N 0.15 deg/sqrt(h), K 3 deg/h/sqrt(h), R 20
 // deg/h^2; 2 h at 100 Hz): R is selected and K dropped in most records. The ramp's Allan estimates scatter through
 // the rate random walk's wander (a cross term that grows with K), and the full model's K, which the ramp's interval
-// was computed at, is 0 in most such records: its 95 % interval held the truth in 69 of 100 records (coverage_study,
-// seeds 28001-28100). Since session 21 a selected ramp's 95 % interval allows K up to the upper end of K's 68 %
+// was computed at, is 0 in most such records: R's 95 % interval held the truth in 69 of 100 records, 85 of them with R
+// supported (coverage_study, seeds 28001-28100). Since session 21 a selected ramp's 95 % interval allows K up to the upper end of K's 68 %
 // interval (noise_model_gls.cpp, boundRampByRandomWalk). The supported R's 95 % intervals must hold the truth at least
 // 95 % of the time, less the binomial allowance. Its 68 % intervals still under-cover (docs/calibration.md, "Session
 // 21"), so they are printed, not checked. 60 records, simulateAxis seeds 8601..
@@ -285,8 +287,9 @@ TEST(Calibration, SelectedRampBesideADroppedRandomWalkCoversAt95) {
   Tally t;
   runClass(a, 100, 2 * 3600, 8601, 60, &t);
   const Counts& r = t.sel_term[kRateRamp];
-  std::printf("selected R: 68 %% %d/%d, 95 %% %d/%d; dropped K: 68 %% %d/%d\n", r.in68, r.cases, r.in95, r.cases,
-              t.drop_term[kRateRandomWalk].in68, t.drop_term[kRateRandomWalk].cases);
+  EXPECT_GT(t.ramp_bounded, r.cases / 2) << "the bound acts in most of these records";
+  std::printf("selected R: 68 %% %d/%d, 95 %% %d/%d (widened in %d); dropped K: 68 %% %d/%d\n", r.in68, r.cases,
+              r.in95, r.cases, t.ramp_bounded, t.drop_term[kRateRandomWalk].in68, t.drop_term[kRateRandomWalk].cases);
   ASSERT_GE(r.cases, 40);  // R is selected in most records
   expectAtLeast95(r.in95, r.cases, "95 % intervals of the selected R beside a dropped K");
 }

@@ -415,8 +415,9 @@ struct GlsFit {
   // upper end instead of the full model's K. A ramp's Allan estimates scatter through the cross term 4 mu mu' Cov(d, d')
   // (avar_covariance.hpp), which a rate random walk's wander makes large, so the ramp's sd depends steeply on K; the full
   // model's K is 0 in most such records (K and R trade over the longest taus), and the ramp's 95 % interval held the
-  // truth in 69 of 100 records of a 2 h gyro with K = 3 deg/h/sqrt(h) and R = 20 deg/h^2 (docs/calibration.md,
-  // "Session 21").
+  // truth in 69 of 100 records of a 2 h gyro with K = 3 deg/h/sqrt(h) and R = 20 deg/h^2, R supported in 85 of them
+  // (docs/calibration.md, "Session 21"). A K the search selected (c > 0) is in the selected columns already, so R's sd
+  // has it free and at the full model's value, also when its correction or a rival reports it dropped.
   void boundRampByRandomWalk() {
     int r_col = -1, k_col = -1;
     for (int col : ieee_cols) {
@@ -631,7 +632,7 @@ struct GlsFit {
 
   // `terms`: the least-squares values behind the model curve (the model check works with these); `terms_corrected`:
   // the answer, with the selection-corrected values and the barely selected terms dropped. Both carry the same
-  // intervals, until ambiguity() changes those of terms_corrected that a close rival disagrees on.
+  // intervals, until ambiguity(), widenBySupersets() and boundRampByRandomWalk() change some of terms_corrected's.
   void coefficients() {
     for (int col = 0; col < ncol; ++col) {
       const TermInference& ti = inf[static_cast<size_t>(col)];

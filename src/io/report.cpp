@@ -241,6 +241,8 @@ YAML::Node fitNode(const FitResult& fit) {
     n["dropped_by_selection_correction"] = droppedByCorrection(fit, 0);
     addRivalFields(&n, fit, fit.ambiguous);
     addSupersetFields(&n, fit, fit.widened);
+    // A selected ramp's 95 % interval widened to allow the rate random walk the record cannot exclude.
+    n["ramp_95_allows_random_walk"] = fit.ramp_bounded_by_random_walk;
   } else {
     n["weighting"] = str("edf");
   }
@@ -445,6 +447,8 @@ YAML::Node buildReport(const ReportMeta& meta, const std::vector<AxisAnalysis>& 
       YAML::Node ts;
       addRivalFields(&ts, answerFit(a), answerAmbiguous(a));
       addSupersetFields(&ts, answerFit(a), answerWidened(a));
+      ts["ramp_95_allows_random_walk"] =
+          answerFit(a).ramp_bounded_by_random_walk && a.coefficients[kRateRamp].supported;
       n["term_selection"] = ts;
     }
     if (a.quantized.quantized) n["quantized_output"] = quantizedNode(a.quantized);
