@@ -103,6 +103,9 @@ std::array<bool, kNumTerms> answerAmbiguous(const AxisAnalysis& a);
 /// The terms of the answer whose interval a close larger set of terms widened (FitResult::widened, kSupersetGap);
 /// for the wavelet split only B, K and R (since session 16 it reports its denoised fit's terms_corrected).
 std::array<bool, kNumTerms> answerWidened(const AxisAnalysis& a);
+/// Whether the answer's rate ramp is supported and its 95 % interval allows the rate random walk the record cannot
+/// exclude (FitResult::ramp_bounded_by_random_walk of answerFit).
+bool answerRampBounded(const AxisAnalysis& a);
 
 /// Rate samples [rad/s] of one gap-free segment of angle samples, in place: an accumulated angle theta (n points)
 /// gives the n - 1 rates (theta[k+1] - theta[k]) / tau0; increments delta (n) give the n rates delta[k] / tau0.

@@ -514,7 +514,7 @@ AxisAnalysis AxisStages::finish() {
       a.notes.push_back(buf);
     }
   }
-  if (answerFit(a).ramp_bounded_by_random_walk && a.coefficients[kRateRamp].supported)
+  if (answerRampBounded(a))
     a.notes.push_back(
         "rate ramp's 95 % interval widened: it allows the rate random walk this record cannot exclude (K at the upper "
         "end of its 68 % interval), whose wander the ramp's estimate takes up");
@@ -536,6 +536,10 @@ std::array<bool, kNumTerms> answerWidened(const AxisAnalysis& a) {
   std::array<bool, kNumTerms> w = answerFit(a).widened;  // the split reports its denoised fit's B, K, R as corrected
   if (a.method == "wavelet_split") w[kQuantization] = w[kAngleRandomWalk] = false;
   return w;
+}
+
+bool answerRampBounded(const AxisAnalysis& a) {
+  return answerFit(a).ramp_bounded_by_random_walk && a.coefficients[kRateRamp].supported;
 }
 
 std::array<bool, kNumTerms> answerAmbiguous(const AxisAnalysis& a) {

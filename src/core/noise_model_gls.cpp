@@ -239,6 +239,13 @@ struct GlsFit {
 
   double penalty(int col) const { return entryPenalty(P.term[static_cast<size_t>(col)], options); }
 
+  // The column of IEEE term t (-1 when the problem has none).
+  int columnOf(int t) const {
+    for (int col : ieee_cols)
+      if (P.term[static_cast<size_t>(col)] == t) return col;
+    return -1;
+  }
+
   // The result's fixed fields and per-point arrays.
   void initResult() {
     const size_t np = curve.points.size();
@@ -419,11 +426,7 @@ struct GlsFit {
   // (docs/calibration.md, "Session 21"). A K the search selected (c > 0) is in the selected columns already, so R's sd
   // has it free and at the full model's value, also when its correction or a rival reports it dropped.
   void boundRampByRandomWalk() {
-    int r_col = -1, k_col = -1;
-    for (int col : ieee_cols) {
-      if (P.term[static_cast<size_t>(col)] == kRateRamp) r_col = col;
-      if (P.term[static_cast<size_t>(col)] == kRateRandomWalk) k_col = col;
-    }
+    const int r_col = columnOf(kRateRamp), k_col = columnOf(kRateRandomWalk);
     Coefficient& cc = r.terms_corrected[kRateRamp];
     if (!options.intervals || r_col < 0 || k_col < 0 || !(c[r_col] > 0) || c[k_col] > 0 || !cc.supported) return;
     Eigen::VectorXd cm = c_full;
@@ -448,9 +451,7 @@ struct GlsFit {
   // nearly collinear with N's; inferAll), and widening a selected K or R was not studied.
   void widenBySupersets(const Whitened& w) {
     Coefficient& cc = r.terms_corrected[kBiasInstability];
-    int b_col = -1;
-    for (int col : ieee_cols)
-      if (P.term[static_cast<size_t>(col)] == kBiasInstability) b_col = col;
+    const int b_col = columnOf(kBiasInstability);
     if (!options.intervals || b_col < 0 || !(c[b_col] > 0) || !cc.supported) return;
     for (const CloseRival& cs : close_supersets) {
       std::vector<int> cols;

@@ -447,8 +447,7 @@ YAML::Node buildReport(const ReportMeta& meta, const std::vector<AxisAnalysis>& 
       YAML::Node ts;
       addRivalFields(&ts, answerFit(a), answerAmbiguous(a));
       addSupersetFields(&ts, answerFit(a), answerWidened(a));
-      ts["ramp_95_allows_random_walk"] =
-          answerFit(a).ramp_bounded_by_random_walk && a.coefficients[kRateRamp].supported;
+      ts["ramp_95_allows_random_walk"] = answerRampBounded(a);
       n["term_selection"] = ts;
     }
     if (a.quantized.quantized) n["quantized_output"] = quantizedNode(a.quantized);
