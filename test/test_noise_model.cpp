@@ -27,7 +27,7 @@ DeviationCurve modelCurve(const std::array<double, kNumTerms>& coef, double tau0
     DeviationPoint p;
     p.m = m;
     p.tau = m * tau0;
-    for (int t = 0; t < kNumTerms; ++t) p.var += coef[t] * coef[t] * noiseTermBasis(t, p.tau);
+    for (int t = 0; t < kNumTerms; ++t) p.var += coef[t] * coef[t] * noiseTermBasis(t, p.tau, tau0);
     p.dev = std::sqrt(p.var);
     p.edf = edf;
     c.points.push_back(p);
@@ -74,6 +74,29 @@ TEST(NoiseModel, RecoversExactModelCurve) {
   }
   EXPECT_LT(f.rms_log10, 1e-8);
   EXPECT_LT(f.chi2_dof, 1e-10);
+}
+
+// The sampled flicker's Allan variance over its floor, against an independent computation: the spectral integral
+// AVAR(m) = 2 int_0^1/2 S(f) 2 sin^4(pi m f) / (m^2 sin^2(pi f)) df of Kasdin's 1/f noise, S(f) = 1 / (2 sin(pi f))
+// (unit white input, f in cycles per sample), over (2 ln2 / pi); midpoint rule on 400000 cells.
+TEST(NoiseModel, FlickerShapeMatchesItsSpectralIntegral) {
+  for (int m : {1, 2, 3, 4, 8, 16, 64}) {
+    const int cells = 400000;
+    double s = 0;
+    for (int i = 0; i < cells; ++i) {
+      const double f = (i + 0.5) / cells * 0.5;
+      const double sf = std::sin(M_PI * f);
+      s += 2.0 * std::pow(std::sin(M_PI * m * f), 4) / (static_cast<double>(m) * m * sf * sf) / (2.0 * sf);
+    }
+    const double avar = 2.0 * s * 0.5 / cells;
+    EXPECT_NEAR(flickerAvarShape(m), avar / (2.0 * std::log(2.0) / M_PI), 2e-5) << "m = " << m;
+  }
+  EXPECT_NEAR(flickerAvarShape(1), 1.0 / std::log(2.0), 1e-12);  // AVAR(1) = 2 / pi exactly
+  EXPECT_DOUBLE_EQ(flickerAvarShape(1e6), 1.0);
+  // The column: the shape at tau / tau0 samples; without a sampling interval (tau0 0) the long-tau floor.
+  EXPECT_NEAR(noiseTermBasis(kBiasInstability, 0.02, 0.01) / noiseTermBasis(kBiasInstability, 0.02), flickerAvarShape(2), 1e-12);
+  EXPECT_DOUBLE_EQ(noiseTermBasis(kBiasInstability, 0.02, 0.0), noiseTermBasis(kBiasInstability, 0.02));
+  EXPECT_DOUBLE_EQ(noiseTermBasis(kAngleRandomWalk, 0.02, 0.01), noiseTermBasis(kAngleRandomWalk, 0.02));
 }
 
 TEST(NoiseModel, WeakTermIsDroppedWithBoundCoveringIt) {

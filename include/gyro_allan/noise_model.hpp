@@ -24,6 +24,12 @@ const char* noiseTermUnit(int term);
 
 /// Allan-variance basis of each term per unit coefficient squared: 3/tau^2, 1/tau, 2ln2/pi, tau/3, tau^2/2.
 double noiseTermBasis(int term, double tau);
+/// The same for a series sampled every tau0 (> 0): the bias instability's column is the flicker's exact Allan variance
+/// at m = tau / tau0 samples (flickerAvarShape), the others as above.
+double noiseTermBasis(int term, double tau, double tau0);
+/// A sampled flicker's Allan variance at m samples over its long-tau floor (2 ln2 / pi) B^2: 1.443 at m = 1, 1.154 at
+/// 2, 1.050 at 4, 1.015 at 8, 1.0004 at 64 (Kasdin's discrete 1/f noise, as simulate.cpp generates it).
+double flickerAvarShape(double m);
 
 /// A coefficient with its uncertainty. supported == false: the data does not support the term; value is 0
 /// and sigma is the upper end of its 68 % interval (what it could be and still fit).
@@ -96,6 +102,7 @@ struct FitResult {
   std::vector<Coefficient> extra;             ///< one per ExtraTerm, sqrt of its fitted c
   std::vector<double> extra_c;                ///< fitted c of each extra term
   std::vector<double> tau;                    ///< taus of the curve points (all of them)
+  double tau0 = 0;                            ///< the curve's sampling interval (B's column; noiseTermBasis)
   std::vector<double> model_var;              ///< model AVAR at each curve point
   std::vector<bool> used;                     ///< point took part in the fit
   double chi2 = 0;                            ///< EDF-weighted chi-squared of the AVAR residual

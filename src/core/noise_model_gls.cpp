@@ -197,7 +197,7 @@ bool buildProblem(const DeviationCurve& curve, const FitOptions& options, const 
     const double tau = curve.points[static_cast<size_t>(P->idx[static_cast<size_t>(i)])].tau;
     for (size_t k = 0; k < P->term.size(); ++k) {
       const int t = P->term[k];
-      P->F(i, static_cast<int>(k)) = t < kNumTerms ? noiseTermBasis(t, tau) : extra[static_cast<size_t>(t - kNumTerms)].basis(tau);
+      P->F(i, static_cast<int>(k)) = t < kNumTerms ? noiseTermBasis(t, tau, curve.tau0) : extra[static_cast<size_t>(t - kNumTerms)].basis(tau);
     }
   }
   return true;
@@ -676,7 +676,7 @@ struct GlsFit {
       for (int k = 0; k < ncol; ++k) {
         if (!(c[k] > 0)) continue;
         const int t = P.term[static_cast<size_t>(k)];
-        v += c[k] * (t < kNumTerms ? noiseTermBasis(t, curve.points[i].tau) : extra[static_cast<size_t>(t - kNumTerms)].basis(curve.points[i].tau));
+        v += c[k] * (t < kNumTerms ? noiseTermBasis(t, curve.points[i].tau, curve.tau0) : extra[static_cast<size_t>(t - kNumTerms)].basis(curve.points[i].tau));
       }
       r.model_var[i] = v;
     }

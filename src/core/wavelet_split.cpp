@@ -734,7 +734,7 @@ void reportCoefficients(const WaveletSplitOptions& options, const QnEstimate& e,
 std::vector<double> modelOf(const DeviationCurve& c, const std::array<Coefficient, kNumTerms>& terms) {
   std::vector<double> m(c.points.size(), 0.0);
   for (size_t i = 0; i < c.points.size(); ++i)
-    for (int t = 0; t < kNumTerms; ++t) m[i] += terms[static_cast<size_t>(t)].value * terms[static_cast<size_t>(t)].value * noiseTermBasis(t, c.points[i].tau);
+    for (int t = 0; t < kNumTerms; ++t) m[i] += terms[static_cast<size_t>(t)].value * terms[static_cast<size_t>(t)].value * noiseTermBasis(t, c.points[i].tau, c.tau0);
   return m;
 }
 
