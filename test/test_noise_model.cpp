@@ -78,9 +78,10 @@ TEST(NoiseModel, RecoversExactModelCurve) {
 
 // The sampled flicker's Allan variance over its floor, against an independent computation: the spectral integral
 // AVAR(m) = 2 int_0^1/2 S(f) 2 sin^4(pi m f) / (m^2 sin^2(pi f)) df of Kasdin's 1/f noise, S(f) = 1 / (2 sin(pi f))
-// (unit white input, f in cycles per sample), over (2 ln2 / pi); midpoint rule on 400000 cells.
+// (unit white input, f in cycles per sample), over (2 ln2 / pi); midpoint rule on 400000 cells. Beyond 512 samples
+// the excess (2e-6 at 1024) is checked to 2e-6 (the midpoint rule's own error there is ~1e-6).
 TEST(NoiseModel, FlickerShapeMatchesItsSpectralIntegral) {
-  for (int m : {1, 2, 3, 4, 8, 16, 64}) {
+  for (int m : {1, 2, 3, 4, 8, 16, 64, 512, 1024}) {  // 1024: beyond the table, its 1/m^2 tail
     const int cells = 400000;
     double s = 0;
     for (int i = 0; i < cells; ++i) {
@@ -89,10 +90,10 @@ TEST(NoiseModel, FlickerShapeMatchesItsSpectralIntegral) {
       s += 2.0 * std::pow(std::sin(M_PI * m * f), 4) / (static_cast<double>(m) * m * sf * sf) / (2.0 * sf);
     }
     const double avar = 2.0 * s * 0.5 / cells;
-    EXPECT_NEAR(flickerAvarShape(m), avar / (2.0 * std::log(2.0) / M_PI), 2e-5) << "m = " << m;
+    EXPECT_NEAR(flickerAvarShape(m), avar / (2.0 * std::log(2.0) / M_PI), m < 512 ? 2e-5 : 2e-6) << "m = " << m;
   }
   EXPECT_NEAR(flickerAvarShape(1), 1.0 / std::log(2.0), 1e-12);  // AVAR(1) = 2 / pi exactly
-  EXPECT_DOUBLE_EQ(flickerAvarShape(1e6), 1.0);
+  EXPECT_NEAR(flickerAvarShape(1e6), 1.0, 1e-9);
   // The column: the shape at tau / tau0 samples; without a sampling interval (tau0 0) the long-tau floor.
   EXPECT_NEAR(noiseTermBasis(kBiasInstability, 0.02, 0.01) / noiseTermBasis(kBiasInstability, 0.02), flickerAvarShape(2), 1e-12);
   EXPECT_DOUBLE_EQ(noiseTermBasis(kBiasInstability, 0.02, 0.0), noiseTermBasis(kBiasInstability, 0.02));
