@@ -397,6 +397,7 @@ AxisAnalysis AxisStages::finish() {
     a.coefficients = a.split.terms;
     FitResult tmp;
     tmp.terms = a.split.model_terms;  // the curve the split fitted (least squares; `terms` has the corrected B, K, R)
+    tmp.tau0 = a.oadev.tau0;          // B's column as the fits have it (noiseTermBasis)
     for (size_t i = 0; i < a.oadev.points.size(); ++i) a.final_model_var[i] = modelVariance(tmp, a.oadev.points[i].tau);
     int n_params = 0;
     for (const auto& c : a.split.model_terms) n_params += c.supported ? 1 : 0;

@@ -149,7 +149,7 @@ double flickerAvarShape(double m) {
         const int a = std::abs(h);
         s += (mm - a) * (d[static_cast<size_t>(mm + h)] + d[static_cast<size_t>(std::abs(mm - h))] - 2.0 * d[static_cast<size_t>(a)]);
       }
-      g[static_cast<size_t>(mm)] = s / (4.0 * mm * mm) / (kFlickerFactor * 1.0);
+      g[static_cast<size_t>(mm)] = s / (4.0 * mm * mm) / kFlickerFactor;
     }
     return g;
   }();
