@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <limits>
 #include <stdexcept>
 
@@ -129,8 +130,9 @@ Coefficient coefficientFromSquare(double c, double c_sigma, double z_support, do
 // noise through (1 - z^-1)^(-1/2), the form simulate.cpp generates): its first differences have the autocorrelation
 // rho(h) = prod_{k<=h} (k - 3/2) / (k + 1/2) and variance 4/pi, their partial sums the structure function D(h), and
 // AVAR(m) = sum_{|h|<m} (m - |h|) [D(m + h) + D(|m - h|) - 2 D(|h|)] / (4 m^2). 1.4427 at m = 1, 1.1542 at 2, 1.05 at 4,
-// 1.0004 at 64; beyond the table (512 samples, its excess 7e-6) the excess falls as 1/m^2 (exponent 1.85 between 64
-// and 256, 1.93 between 256 and 1024). The table costs ~0.4 ms once (to 2048 it was 6 ms, a process's start).
+// 1.0004 at 64; beyond the table (512 samples, its excess 8e-6) the excess is continued as 1/m^2 (it falls about as
+// log(m)/m^2: exponent 1.85 between 64 and 256, 1.87 between 256 and 1024; the tail's error is below 3e-7). The table
+// costs ~0.4 ms once (to 2048 it was 6 ms, a process's start).
 double flickerAvarShape(double m) {
   constexpr int kMax = 512;
   static const std::vector<double> table = [] {
