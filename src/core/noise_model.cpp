@@ -137,7 +137,7 @@ double flickerAvarShape(double m) {
   constexpr int kMax = 512;
   static const std::vector<double> table = [] {
     std::vector<double> d(2 * kMax + 1, 0.0);  // D(h)
-    const double g0 = 4.0 / 3.14159265358979323846;
+    const double g0 = 4.0 / M_PI;
     double rho = 1.0, step = g0;  // step = D(h) - D(h - 1) = g0 + 2 sum_{j<h} gamma(j)
     for (int h = 1; h <= 2 * kMax; ++h) {
       d[static_cast<size_t>(h)] = d[static_cast<size_t>(h - 1)] + step;
@@ -210,13 +210,9 @@ FitResult fitNoiseModelEdf(const DeviationCurve& curve, const FitOptions& option
 }  // namespace
 
 FitResult fitNoiseModel(const DeviationCurve& curve, const FitOptions& options, const std::vector<ExtraTerm>& extra) {
-  if (options.weighting == FitWeighting::Covariance && detail::glsApplies(curve)) {
-    FitResult r = detail::fitNoiseModelGls(curve, options, extra);
-    r.tau0 = curve.tau0;
-    return r;
-  }
-  FitResult r = fitNoiseModelEdf(curve, options, extra);
-  r.terms_corrected = r.terms;  // no selection correction without the covariance
+  const bool gls = options.weighting == FitWeighting::Covariance && detail::glsApplies(curve);
+  FitResult r = gls ? detail::fitNoiseModelGls(curve, options, extra) : fitNoiseModelEdf(curve, options, extra);
+  if (!gls) r.terms_corrected = r.terms;  // no selection correction without the covariance
   r.tau0 = curve.tau0;
   return r;
 }
