@@ -500,8 +500,8 @@ struct GlsFit {
   }
 
   // Intervals and values by selective inference (selective.hpp). Each term's estimate x (its least-squares value
-  // when selected, a selected K's from a larger set (inferAll); when not, its unconstrained value with the term
-  // added) is treated as normal with a variance
+  // when selected, but a selected K's unconstrained value in a larger set (inferAll); when not, its unconstrained
+  // value with the term added) is treated as normal with a variance
   // that grows with the term itself (the AVAR scatter does: a fixed sigma made the upper side too short), and the
   // fact that the subset search kept it (x above the threshold where its chi-squared saving equals the penalty) or
   // dropped it (below) is conditioned on. The intervals then hold the truth at their stated rate among the records
@@ -592,12 +592,14 @@ struct GlsFit {
   // 1.0-1.1 this way; coverage_study seeds 1-20). B, K and R keep the full model's columns: they are near their
   // thresholds, and the selected set's variance there let K through in 6 of 100 records (session 6).
   // A selected K's estimate comes from those columns too, not from the selected set alone (since session 23): where
-  // a term the record holds was dropped (B below its entry beside a ramp), the selected set's K took up that term's
+  // a term the record holds was dropped (B below its entry), the selected set's K took up that term's
   // share of the long-tau points, and the selection then kept the records where K came out high. Noise-free, N 0.15
   // deg/sqrt(h), B 1 deg/h (dropped), K 20 deg/h/sqrt(h), 2 h at 100 Hz: K +9.7 % from the selected set, -0.3 % this
   // way (test_noise_model SelectedRandomWalkIsNotRaisedByADroppedFlicker). On records (kr_big: N 0.15, B 1, K 6,
   // R 40): the supported K's median bias +68 % -> +15 % (seeds 29101-29300) and +52 % -> +42 % (30101-30300).
-  // B and R keep the selected set's values: B's estimate from the larger set helped B and hurt K (session 13).
+  // That estimate is unconstrained: one at or below K's threshold is dropped by its correction (infer). B and R keep
+  // the selected set's values (session 13 took every selected term's from the larger set at once: B improved and K's
+  // detection fell; docs/calibration.md, "Session 23").
   void inferAll(const Whitened& w) {
     inf.assign(static_cast<size_t>(ncol), TermInference{});
     std::vector<int> ucols = pos;
