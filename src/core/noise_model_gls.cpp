@@ -23,6 +23,11 @@ double entryPenalty(int term, const FitOptions& options) {
   return term == kRateRamp ? options.ramp_penalty : options.term_penalty;
 }
 
+/// Column t of the design at tau: an IEEE term's basis (B's at the record's tau0), else extra term t - kNumTerms's.
+double columnBasis(int t, double tau, double tau0, const std::vector<ExtraTerm>& extra) {
+  return t < kNumTerms ? noiseTermBasis(t, tau, tau0) : extra[static_cast<size_t>(t - kNumTerms)].basis(tau);
+}
+
 /// Whether a dropped term `other` is estimated beside a dropped term `t` (since session 20): a dropped rate random walk
 /// beside a dropped ramp and the other way round. Fitted with the selected terms alone, a dropped K took up a dropped
 /// ramp's rise (its 68 % interval started above the truth in 62 % of tactical records with a ramp at 4 h, in 23 of
@@ -197,7 +202,7 @@ bool buildProblem(const DeviationCurve& curve, const FitOptions& options, const 
     const double tau = curve.points[static_cast<size_t>(P->idx[static_cast<size_t>(i)])].tau;
     for (size_t k = 0; k < P->term.size(); ++k) {
       const int t = P->term[k];
-      P->F(i, static_cast<int>(k)) = t < kNumTerms ? noiseTermBasis(t, tau, curve.tau0) : extra[static_cast<size_t>(t - kNumTerms)].basis(tau);
+      P->F(i, static_cast<int>(k)) = columnBasis(t, tau, curve.tau0, extra);
     }
   }
   return true;
@@ -687,7 +692,7 @@ struct GlsFit {
       for (int k = 0; k < ncol; ++k) {
         if (!(c[k] > 0)) continue;
         const int t = P.term[static_cast<size_t>(k)];
-        v += c[k] * (t < kNumTerms ? noiseTermBasis(t, curve.points[i].tau, curve.tau0) : extra[static_cast<size_t>(t - kNumTerms)].basis(curve.points[i].tau));
+        v += c[k] * columnBasis(t, curve.points[i].tau, curve.tau0, extra);
       }
       r.model_var[i] = v;
     }
