@@ -553,6 +553,21 @@ TEST(AllanValidation, BadInputsThrow) {
   EXPECT_THROW(deviationEdf("oadev", 3, 1, 100), std::invalid_argument);
   EXPECT_THROW(deviationEdf("nope", 0, 1, 100), std::invalid_argument);
   EXPECT_THROW(rateToAngle(y, 0.0), std::invalid_argument);
+  // rateToAngle names the first non-finite sample; finite samples whose double sum overflows are not an error
+  // (its mean falls back to long double): the phase of a constant 1e308 rate is flat.
+  std::vector<double> r(3000, 1.0);
+  r[2100] = -INFINITY;
+  r[2500] = std::nan("");
+  try {
+    rateToAngle(r, 1.0);
+    ADD_FAILURE() << "no exception";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("index 2100"), std::string::npos) << e.what();
+  }
+  const std::vector<double> huge(3000, 1e308);
+  const auto xh = rateToAngle(huge, 1.0);
+  ASSERT_EQ(xh.size(), 3001u);
+  for (double v : xh) ASSERT_EQ(v, 0.0);
   EXPECT_THROW(computeDeviation("mtotdev", bad, InputKind::Rate, 1.0, DeviationOptions{}), std::invalid_argument);
   EXPECT_FALSE(isDeviationName("allan"));
   EXPECT_TRUE(isDeviationName("totdev"));

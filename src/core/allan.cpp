@@ -92,24 +92,53 @@ std::vector<int64_t> tauGridFactors(const TauGrid& grid, int64_t max_m) {
 }
 
 // ------------------------------------------------------------------------------------------------ phase
+namespace {
+/// Sum of f(v[i]) in four double lanes per block of 1024 (vectorisable), the blocks added in long double: as accurate
+/// as a long-double loop for a mean, about 4x faster (x87 arithmetic does not vectorise).
+template <class F>
+long double blockedSum(const double* v, size_t n, F f) {
+  long double total = 0;
+  for (size_t i = 0; i < n;) {
+    const size_t end = std::min(n, i + 1024);
+    double a0 = 0, a1 = 0, a2 = 0, a3 = 0;
+    for (; i + 4 <= end; i += 4) {
+      a0 += f(v[i]);
+      a1 += f(v[i + 1]);
+      a2 += f(v[i + 2]);
+      a3 += f(v[i + 3]);
+    }
+    for (; i < end; ++i) a0 += f(v[i]);
+    total += (a0 + a1) + (a2 + a3);
+  }
+  return total;
+}
+}  // namespace
+
 std::vector<double> rateToAngle(const std::vector<double>& rate, double tau0) {
   if (!(tau0 > 0) || !std::isfinite(tau0)) throw std::invalid_argument("rateToAngle: tau0 must be finite and > 0");
   std::vector<double> x(rate.size() + 1, 0.0);
   if (rate.empty()) return x;
-  long double mean = 0;
-  for (size_t i = 0; i < rate.size(); ++i) {
-    if (!std::isfinite(rate[i])) throw std::invalid_argument("rateToAngle: non-finite rate sample at index " + std::to_string(i));
-    mean += rate[i];
+  const double* v = rate.data();
+  const size_t n = rate.size();
+  const auto nl = static_cast<long double>(n);
+  long double mean = blockedSum(v, n, [](double a) { return a; }) / nl;
+  if (!std::isfinite(static_cast<double>(mean))) {
+    // A non-finite sample, or finite ones whose double partial sums overflow: name the first, else sum again in
+    // long double (its range holds any sum of doubles).
+    long double sum = 0;
+    for (size_t i = 0; i < n; ++i) {
+      if (!std::isfinite(v[i])) throw std::invalid_argument("rateToAngle: non-finite rate sample at index " + std::to_string(i));
+      sum += v[i];
+    }
+    mean = sum / nl;
   }
-  mean /= static_cast<long double>(rate.size());
   // second pass corrects the mean for the rounding of the first (compensated mean)
-  long double corr = 0;
-  for (double v : rate) corr += static_cast<long double>(v) - mean;
-  mean += corr / static_cast<long double>(rate.size());
+  const double m0 = static_cast<double>(mean);
+  if (std::isfinite(m0)) mean = m0 + blockedSum(v, n, [m0](double a) { return a - m0; }) / nl;
   long double acc = 0;
   const long double t0 = tau0;
-  for (size_t i = 0; i < rate.size(); ++i) {
-    acc += (static_cast<long double>(rate[i]) - mean) * t0;
+  for (size_t i = 0; i < n; ++i) {
+    acc += (static_cast<long double>(v[i]) - mean) * t0;
     x[i + 1] = static_cast<double>(acc);
   }
   return x;
