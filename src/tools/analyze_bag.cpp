@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <ctime>
 #include <climits>
 #include <condition_variable>
 #include <cmath>
@@ -382,7 +383,7 @@ std::string inputSummary(const ReportMeta& meta) {
   return out;
 }
 
-/// GYRO_ALLAN_PROFILE=1: one stderr line per stage with wall time since start, resident and peak memory (for
+/// GYRO_ALLAN_PROFILE=1: one stderr line per stage with wall and CPU time since start, resident and peak memory (for
 /// bench/whole_tool.sh and docs/performance.md).
 void profileStage(const char* stage) {
   static const bool on = [] {
@@ -401,7 +402,13 @@ void profileStage(const char* stage) {
     }
     std::fclose(f);
   }
-  std::fprintf(stderr, "profile: %-28s %7.3f s  rss %6.1f MB  peak %6.1f MB\n", stage, t, rss / 1024.0, hwm / 1024.0);
+  // Process CPU time (all threads) since the first stage: cpu/wall over a stage is how many cores it kept busy.
+  timespec cpu{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &cpu);
+  static const double c0 = static_cast<double>(cpu.tv_sec) + 1e-9 * static_cast<double>(cpu.tv_nsec);
+  const double c = static_cast<double>(cpu.tv_sec) + 1e-9 * static_cast<double>(cpu.tv_nsec) - c0;
+  std::fprintf(stderr, "profile: %-28s %7.3f s  cpu %6.3f s  rss %6.1f MB  peak %6.1f MB\n", stage, t, c, rss / 1024.0,
+               hwm / 1024.0);
 #ifdef __GLIBC__
   if (std::getenv("GYRO_ALLAN_PROFILE_MALLOC")) malloc_stats();
 #endif
