@@ -12,9 +12,11 @@
 #include <condition_variable>
 #include <cstdio>
 #include <exception>
+#include <future>
 #include <memory>
 #include <mutex>
 #include <stdexcept>
+#include <system_error>
 #include <thread>
 
 #include "gyro_allan/quality.hpp"
@@ -163,7 +165,6 @@ struct PipelineRun {
 
   PipelineResult meta;
   SanitizedSeries ss;
-  size_t n_stamps = 0;
   double tau0 = 0;
   double rest_t0 = 0, rest_t1 = 0;  // the analysed stretch by stamp (for the accelerometer's own sanitation)
   bool accel_published = false;
@@ -182,11 +183,41 @@ struct PipelineRun {
   std::string accel_error;  // set: not analysed, with this reason
   AnalysisOptions ao;
   SanitizedSeries sa;
+  std::string accel_sanitize_error;  // from the accelerometer's sanitation (taken into accel_error if it is analysed)
   std::vector<std::string> accel_errors = std::vector<std::string>(3);
+  // The accelerometer's sanitation, run beside the gyro's (startAccelSanitize); last member, so it is waited for
+  // before anything it uses is destroyed.
+  std::future<void> accel_sanitized;
 
   /// Reports a finished stage to the profiling callback, if any.
   void profileStage(const char* stage) {
     if (options.stage) options.stage(stage);
+  }
+
+  /// Whether the accelerometer is analysed if it turns out to be published: compact input with one sample per stamp.
+  bool accelPresent() const {
+    return options.accel && compact && !accel[0].empty() && accel[0].size() == t_c.size();
+  }
+
+  /// Starts the accelerometer's sanitation on a second thread: it needs only the stamps and its own samples, and the
+  /// gyro's sanitation beside it is single-threaded (the second core was idle there). Its rest restriction is applied
+  /// later, in the graph (addAccelTasks).
+  void startAccelSanitize() {
+    if (!accelPresent()) return;
+    try {
+      accel_sanitized = std::async(std::launch::async, [this] { sanitizeAccel(); });
+    } catch (const std::system_error&) {
+      // no thread to be had: the graph's accelerometer task sanitizes it instead
+    }
+  }
+
+  /// The accelerometer's stamps and samples sanitized into sa (an error into accel_sanitize_error).
+  void sanitizeAccel() {
+    try {
+      sa = sanitizeCompact(t_c.toSeconds(), {&accel[0], &accel[1], &accel[2]}, so);
+    } catch (const std::exception& e) {
+      accel_sanitize_error = e.what();
+    }
   }
 
   /// Checks the input's shape, sanitizes the stamps and gyro samples, and takes the stamp report and tau0 into meta.
@@ -205,7 +236,6 @@ struct PipelineRun {
       ss = sanitize(t, ptrs, so);
       for (auto& v : values) std::vector<double>().swap(v);
     }
-    n_stamps = t.size();
     if (compact) std::vector<double>().swap(t);  // rebuilt from t_c for the accelerometer
     releaseFreed();
     profileStage("sanitize");
@@ -223,7 +253,7 @@ struct PipelineRun {
   void checkRest() {
     // At rest? (rest.hpp) The gyro axes and, when published, the accelerometer, fed sample by sample from their
     // stored form. A sensor that moved is analysed over its longest static stretch, or not at all.
-    if (options.accel && compact && !accel[0].empty() && accel[0].size() == n_stamps)
+    if (accelPresent())
       for (const auto& v : accel)
         for (size_t i = 0; i < v.size() && !accel_published; ++i) accel_published = v[i] != 0 && std::isfinite(v[i]);
     if (opt.input == InputKind::Rate && options.rest_check) {
@@ -338,7 +368,7 @@ struct PipelineRun {
     // Accelerometer: the same engine, joint fit only (the wavelet split and model check are tuned for gyros and
     // would double the run time); the mean (gravity) is removed first. Its sanitation and three axes are graph
     // tasks after the second-to-last wavelet split, so they run beside the last gyro axis's split and check.
-    if (options.accel && compact && !accel[0].empty() && accel[0].size() == n_stamps) {
+    if (accelPresent()) {
       if (!accel_published) {  // an IMU without accelerometer publishes zeros
         accel_note = "accelerometer: linear_acceleration is all zero (not published?): not analysed";
       } else {
@@ -355,7 +385,11 @@ struct PipelineRun {
     const size_t sanitize_task = tasks.size();
     tasks.push_back([&] {
       try {
-        sa = sanitizeCompact(t_c.toSeconds(), {&accel[0], &accel[1], &accel[2]}, so);
+        if (accel_sanitized.valid())
+          accel_sanitized.get();  // started beside the gyro's sanitation; done by now as a rule
+        else
+          sanitizeAccel();  // the thread could not be started
+        if (!accel_sanitize_error.empty()) throw std::invalid_argument(accel_sanitize_error);
         if (meta.rest_restricted) sa.restrictToTime(rest_t0, rest_t1);  // the gyro's static stretch
         t_c.clear();
         std::vector<double>().swap(sa.t);
@@ -427,6 +461,7 @@ struct PipelineRun {
 
 PipelineResult runPipeline(PipelineInput&& in, const PipelineOptions& options, StampReport* counted) {
   PipelineRun run(in, options);
+  run.startAccelSanitize();
   run.sanitizeGyro(counted);
   run.checkRest();
   run.addGyroTasks();
