@@ -254,6 +254,9 @@ class ChunkPipeline {
     cv_.wait(lock, [this] { return !ready_.empty() || done_ || failed_; });
     if (!ready_.empty()) {
       out->swap(ready_.front());
+      // The caller's previous buffer goes back to the producer: a reused buffer is resized without zeroing (and
+      // page-faulting) a fresh megabyte per chunk, which was a fifth of the reading thread's time.
+      spare_.push_back(std::move(ready_.front()));
       ready_.pop_front();
       cv_.notify_all();
       return true;
@@ -267,6 +270,13 @@ class ChunkPipeline {
     std::string compressed;
     for (uint64_t pos : positions_) {
       std::string chunk;
+      {
+        std::lock_guard<std::mutex> lock(m_);
+        if (!spare_.empty()) {
+          chunk.swap(spare_.back());
+          spare_.pop_back();
+        }
+      }
       try {
         readChunk(&file_, pos, &compressed, &chunk);
       } catch (...) {
@@ -292,6 +302,7 @@ class ChunkPipeline {
   std::mutex m_;
   std::condition_variable cv_;
   std::deque<std::string> ready_;
+  std::vector<std::string> spare_;  // buffers the caller has finished with, for the producer to reuse
   bool done_ = false, failed_ = false, stop_ = false;
   std::thread thread_;  // last: started after every other member exists
 };
