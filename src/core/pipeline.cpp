@@ -184,6 +184,7 @@ struct PipelineRun {
   AnalysisOptions ao;
   SanitizedSeries sa;
   std::string accel_sanitize_error;  // from the accelerometer's sanitation (taken into accel_error if it is analysed)
+  bool accel_settled = false;        // sa is sanitized and restricted (settleAccelSanitize)
   std::vector<std::string> accel_errors = std::vector<std::string>(3);
   // The accelerometer's sanitation, run beside the gyro's (startAccelSanitize); last member, so it is waited for
   // before anything it uses is destroyed.
@@ -218,6 +219,24 @@ struct PipelineRun {
     } catch (const std::exception& e) {
       accel_sanitize_error = e.what();
     }
+  }
+
+  /// After checkRest: waits for the accelerometer's sanitation, restricts it to the gyro's static stretch and frees
+  /// its stamps before the axes start (they would otherwise be held through the gyro's splits).
+  void settleAccelSanitize() {
+    if (!accel_sanitized.valid()) return;
+    accel_sanitized.get();
+    accel_settled = true;
+    if (!accel_sanitize_error.empty() || !accel_published) {
+      sa = SanitizedSeries();
+      return;
+    }
+    try {
+      if (meta.rest_restricted) sa.restrictToTime(rest_t0, rest_t1);  // the gyro's static stretch
+    } catch (const std::exception& e) {
+      accel_sanitize_error = e.what();
+    }
+    std::vector<double>().swap(sa.t);
   }
 
   /// Checks the input's shape, sanitizes the stamps and gyro samples, and takes the stamp report and tau0 into meta.
@@ -385,14 +404,13 @@ struct PipelineRun {
     const size_t sanitize_task = tasks.size();
     tasks.push_back([&] {
       try {
-        if (accel_sanitized.valid())
-          accel_sanitized.get();  // started beside the gyro's sanitation; done by now as a rule
-        else
-          sanitizeAccel();  // the thread could not be started
-        if (!accel_sanitize_error.empty()) throw std::invalid_argument(accel_sanitize_error);
-        if (meta.rest_restricted) sa.restrictToTime(rest_t0, rest_t1);  // the gyro's static stretch
+        if (!accel_settled) {  // the thread could not be started: sanitized here
+          sanitizeAccel();
+          if (accel_sanitize_error.empty() && meta.rest_restricted) sa.restrictToTime(rest_t0, rest_t1);
+          std::vector<double>().swap(sa.t);
+        }
         t_c.clear();
-        std::vector<double>().swap(sa.t);
+        if (!accel_sanitize_error.empty()) throw std::invalid_argument(accel_sanitize_error);
       } catch (const std::exception& e) {
         accel_error = e.what();
       }
@@ -464,6 +482,7 @@ PipelineResult runPipeline(PipelineInput&& in, const PipelineOptions& options, S
   run.startAccelSanitize();
   run.sanitizeGyro(counted);
   run.checkRest();
+  run.settleAccelSanitize();
   run.addGyroTasks();
   run.addAccelTasks();
   runTaskGraph(run.tasks, run.deps, options.jobs);
