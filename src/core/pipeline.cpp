@@ -382,11 +382,13 @@ struct PipelineRun {
     }
   }
 
-  /// Adds the accelerometer's sanitation and three axes to the graph, when it is analysed.
+  /// Adds the accelerometer's three axes to the graph when it is analysed (and its sanitation, if the thread for it
+  /// could not be started).
   void addAccelTasks() {
     // Accelerometer: the same engine, joint fit only (the wavelet split and model check are tuned for gyros and
-    // would double the run time); the mean (gravity) is removed first. Its sanitation and three axes are graph
-    // tasks after the second-to-last wavelet split, so they run beside the last gyro axis's split and check.
+    // would double the run time); the mean (gravity) is removed first. Its sanitation ran beside the gyro's
+    // (startAccelSanitize); its three axes are graph tasks after the second-to-last wavelet split, so they run beside
+    // the last gyro axis's split and check.
     if (accelPresent()) {
       if (!accel_published) {  // an IMU without accelerometer publishes zeros
         accel_note = "accelerometer: linear_acceleration is all zero (not published?): not analysed";
