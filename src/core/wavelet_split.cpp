@@ -384,6 +384,7 @@ struct LevelModel {
   const std::vector<WaveletLevel>& levels;
   int J;
   double b2 = 0, k2 = 0;
+  double b2_sd = 0, k2_sd = 0;  // their standard deviations (delta method from the denoised fit's sigmas)
 
   // Variance of level j from the fixed longer-tau terms.
   double other(int j) const {
@@ -490,6 +491,29 @@ double sawtoothLostSigma(const SplitAngleFactors& fac, double q2, double mean_ra
   return (1.0 - fac.v_q) * sawtoothSkirt(q2, mean_rate_abs, split_frequency_hz);
 }
 
+// The removed angle's variance from the longer-tau terms (B and K, fixed from the denoised Allan fit): the removed
+// rate holds their power in detail levels 1..L too (rj[B] doubles per level, rj[K] quadruples), and the angle weighs
+// each level's power by 1 / (2 pi f)^2. Level j holds a share rj 2^-j of the rate's variance in the octave below
+// f_j = 1 / (2^j tau0), so its angle variance is rj 2^-j times the band's mean of 1 / (2 pi f)^2, i.e. rj 2^j times
+// a constant that depends on the spectral shape within the octave: for a flat (ARW) band the mean of 1/f^2 over
+// [f/2, f] is 2 / f^2, for flicker (1/f, B) (3/2) / (ln 2 f^2), for a random walk (1/f^2, K) (7/3) / f^2. The white
+// constant is taken from the exact factor v_n (splitAngleFactors) rather than from the ideal octaves: sym8's
+// measured v_n / sum_j 2^j is 0.0521-0.0529 for L = 6-10 against 1 / (2 pi^2) = 0.0507 for sharp octaves. B and K
+// get the white constant times their octave-shape ratios (1.082, 1.167). Without it the removed angle's B share
+// was read as quantization: Q +0.24 % (median; 1.3 of its sigma) at B 30 deg/h, N 0.25 deg/sqrt(h), Q 2 arcsec.
+double removedAngleOfLongerTerms(const LevelModel& lm, const SplitAngleFactors& fac, double tau0, int level) {
+  if (!(lm.b2 > 0) && !(lm.k2 > 0)) return 0.0;
+  const double flicker_shape = 1.5 / std::log(2.0) / 2.0, walk_shape = (7.0 / 3.0) / 2.0;
+  double white = 0, other = 0;
+  for (int j = 1; j <= std::min(level, lm.J); ++j) {
+    const auto& rj = lm.resp[static_cast<size_t>(j - 1)];
+    const double w = std::ldexp(1.0, j);
+    white += rj[kAngleRandomWalk] * w;
+    other += (lm.b2 * rj[kBiasInstability] * flicker_shape + lm.k2 * rj[kRateRandomWalk] * walk_shape) * w;
+  }
+  return white > 0 ? fac.v_n * tau0 * other / white : 0.0;
+}
+
 // Q (angle) and N (levels) depend on each other weakly: iterate. With the white-quantization model the levels
 // near the crossover have a known quantization share Q^2 a_j ("fixed"). A quantization error that is not white
 // (sawtooth of a pulse counter at constant rate) leaves the coarse levels nearly clean, and subtracting the white
@@ -504,9 +528,10 @@ QnEstimate iterateQn(const LevelModel& lm, const SplitAngleFactors& fac, const A
   const double var_a = av.var, var_a_sigma = av.sigma;
   const double kFreeFitMaxRatio = options.free_fit_max_ratio;
   e.j_used = lm.J + 1;
+  const double other_a = removedAngleOfLongerTerms(lm, fac, tau0, r->level);
   double v_q_eff = fac.v_q, lost_sigma = 0;
   for (int it = 0; it < 5; ++it) {
-    e.q2 = std::max(0.0, (var_a - fac.v_n * e.n2 * tau0) / v_q_eff);
+    e.q2 = std::max(0.0, (var_a - fac.v_n * e.n2 * tau0 - other_a) / v_q_eff);
     e.q2_sigma = std::sqrt(var_a_sigma * var_a_sigma + std::pow(fac.v_n * tau0 * e.n2_sigma, 2) +
                            std::pow(e.q2 * lost_sigma, 2)) / v_q_eff;
     const LevelFit fixed = lm.fit(false, e.q2, options.max_quantization_share, e.n2);
@@ -534,6 +559,25 @@ QnEstimate iterateQn(const LevelModel& lm, const SplitAngleFactors& fac, const A
     v_q_eff = 1.0 - lost;
   }
   r->quantization_kept = v_q_eff;
+  // B and K are fixed at the denoised fit's values, which are estimates: their uncertainty moves N^2 (the levels'
+  // B and K shares are subtracted) and Q^2 (through N^2 and the removed angle's B and K share). Linear propagation,
+  // one standard deviation of each at a time, the level fit redone as chosen above. At B 30 deg/h with N 0.25
+  // deg/sqrt(h) the fixed B's share of N's coarse levels made N's sigma 0.6 of its scatter without this.
+  for (int term = 0; term < 2; ++term) {
+    const double sd = term == 0 ? lm.b2_sd : lm.k2_sd;
+    if (!(sd > 0)) continue;
+    LevelModel m = lm;
+    (term == 0 ? m.b2 : m.k2) += sd;
+    const LevelFit fixed = m.fit(false, e.q2, options.max_quantization_share, e.n2);
+    const LevelFit freef = m.fit(true, e.q2, kFreeFitMaxRatio, e.n2);
+    const LevelFit& use = (r->quantization_white && fixed.ok) ? fixed : freef;
+    if (!use.ok) continue;
+    const double dn2 = use.n2 - e.n2;
+    const double dother = removedAngleOfLongerTerms(m, fac, tau0, r->level) - other_a;
+    const double dq2 = -(fac.v_n * tau0 * dn2 + dother) / v_q_eff;
+    e.n2_sigma = std::hypot(e.n2_sigma, dn2);
+    e.q2_sigma = std::hypot(e.q2_sigma, dq2);
+  }
   if (!r->quantization_white && e.n2 > 0) {
     // N's levels carry the sawtooth's skirt too (the free fit's gamma a_j, white-shaped): the same relative allowance
     // on that part of them, rho = (quantization part) / (ARW part) summed over the levels N used.
@@ -797,6 +841,9 @@ WaveletSplitResult waveletSplit(const std::vector<double>& rate, double tau0, co
   if (r.denoised_fit.ok) {
     if (options.enabled[kBiasInstability]) lm.b2 = std::pow(r.denoised_fit.terms[kBiasInstability].value, 2);
     if (options.enabled[kRateRandomWalk]) lm.k2 = std::pow(r.denoised_fit.terms[kRateRandomWalk].value, 2);
+    const Coefficient &b = r.denoised_fit.terms[kBiasInstability], &k = r.denoised_fit.terms[kRateRandomWalk];
+    if (lm.b2 > 0) lm.b2_sd = 2.0 * b.value * b.sigma;
+    if (lm.k2 > 0) lm.k2_sd = 2.0 * k.value * k.sigma;
   }
   double n2 = r.n_allan * r.n_allan;
   if (!(n2 > 0) && J > 0) n2 = lv.var[static_cast<size_t>(J - 1)] * tau0;  // start from the coarsest level
