@@ -132,9 +132,15 @@ std::vector<double> rateToAngle(const std::vector<double>& rate, double tau0) {
     }
     mean = sum / nl;
   }
-  // second pass corrects the mean for the rounding of the first (compensated mean)
+  // second pass corrects the mean for the rounding of the first (compensated mean); in long double when the double
+  // lanes overflow (rates near the double range, e.g. alternating +-1e308)
   const double m0 = static_cast<double>(mean);
-  if (std::isfinite(m0)) mean = m0 + blockedSum(v, n, [m0](double a) { return a - m0; }) / nl;
+  long double corr = blockedSum(v, n, [m0](double a) { return a - m0; });
+  if (!std::isfinite(static_cast<double>(corr))) {
+    corr = 0;
+    for (size_t i = 0; i < n; ++i) corr += static_cast<long double>(v[i]) - static_cast<long double>(m0);
+  }
+  mean = m0 + corr / nl;
   long double acc = 0;
   const long double t0 = tau0;
   for (size_t i = 0; i < n; ++i) {

@@ -200,15 +200,24 @@ struct PipelineRun {
     return options.accel && compact && !accel[0].empty() && accel[0].size() == t_c.size();
   }
 
+  /// Whether the accelerometer publishes anything (an IMU without one publishes zeros): any finite non-zero sample.
+  void scanAccelPublished() {
+    if (accelPresent())
+      for (const auto& v : accel)
+        for (size_t i = 0; i < v.size() && !accel_published; ++i) accel_published = v[i] != 0 && std::isfinite(v[i]);
+  }
+
   /// Starts the accelerometer's sanitation on a second thread: it needs only the stamps and its own samples, and the
-  /// gyro's sanitation beside it is single-threaded (the second core was idle there). Its rest restriction is applied
-  /// later, in the graph (addAccelTasks).
+  /// gyro's sanitation beside it is single-threaded (the second core was idle there). Not for an accelerometer that
+  /// publishes nothing, nor with jobs = 1 (sequential: the graph's task sanitizes it). settleAccelSanitize restricts
+  /// it to the gyro's static stretch after the rest check.
   void startAccelSanitize() {
-    if (!accelPresent()) return;
+    scanAccelPublished();
+    if (!accelPresent() || !accel_published || options.jobs == 1) return;
     try {
       accel_sanitized = std::async(std::launch::async, [this] { sanitizeAccel(); });
     } catch (const std::system_error&) {
-      // no thread to be had: the graph's accelerometer task sanitizes it instead
+      // no thread to be had: the graph's accelerometer task sanitizes it instead (as with jobs = 1)
     }
   }
 
@@ -271,10 +280,8 @@ struct PipelineRun {
   /// At rest? Throws when the sensor moved and has no usable static stretch, else restricts ss to the longest one.
   void checkRest() {
     // At rest? (rest.hpp) The gyro axes and, when published, the accelerometer, fed sample by sample from their
-    // stored form. A sensor that moved is analysed over its longest static stretch, or not at all.
-    if (accelPresent())
-      for (const auto& v : accel)
-        for (size_t i = 0; i < v.size() && !accel_published; ++i) accel_published = v[i] != 0 && std::isfinite(v[i]);
+    // stored form. A sensor that moved is analysed over its longest static stretch, or not at all. (accel_published:
+    // scanAccelPublished, before the sanitation.)
     if (opt.input == InputKind::Rate && options.rest_check) {
       std::vector<size_t> sizes;
       for (const auto& seg : ss.segments) sizes.push_back(seg.size());
@@ -382,13 +389,13 @@ struct PipelineRun {
     }
   }
 
-  /// Adds the accelerometer's three axes to the graph when it is analysed (and its sanitation, if the thread for it
-  /// could not be started).
+  /// Adds the accelerometer's three axes to the graph when it is analysed (and its sanitation, when it was not run
+  /// beside the gyro's: jobs = 1, or no thread to be had).
   void addAccelTasks() {
     // Accelerometer: the same engine, joint fit only (the wavelet split and model check are tuned for gyros and
     // would double the run time); the mean (gravity) is removed first. Its sanitation ran beside the gyro's
-    // (startAccelSanitize); its three axes are graph tasks after the second-to-last wavelet split, so they run beside
-    // the last gyro axis's split and check.
+    // (startAccelSanitize; here with jobs = 1); its three axes are graph tasks after the second-to-last wavelet
+    // split, so they run beside the last gyro axis's split and check.
     if (accelPresent()) {
       if (!accel_published) {  // an IMU without accelerometer publishes zeros
         accel_note = "accelerometer: linear_acceleration is all zero (not published?): not analysed";
@@ -406,7 +413,7 @@ struct PipelineRun {
     const size_t sanitize_task = tasks.size();
     tasks.push_back([&] {
       try {
-        if (!accel_settled) {  // the thread could not be started: sanitized here
+        if (!accel_settled) {  // jobs = 1, or the thread could not be started: sanitized here
           sanitizeAccel();
           if (accel_sanitize_error.empty() && meta.rest_restricted) sa.restrictToTime(rest_t0, rest_t1);
           std::vector<double>().swap(sa.t);

@@ -469,7 +469,8 @@ void describeLevels(const LevelData& lv, int J, double tau0, WaveletSplitResult*
 // Q^2 (angle) and N^2 (levels) with their sigmas, and the levels N used.
 struct QnEstimate {
   double q2 = 0, q2_sigma = 0, n2 = 0, n2_sigma = 0;
-  double n2_sigma_levels = 0;  // n2_sigma of the level fit alone, before the sawtooth's skirt allowance
+  double n2_sigma_levels = 0;  // n2_sigma before the sawtooth's skirt allowance (level fit, B's and K's part)
+  double q2_sigma_longer = 0;  // the part of q2_sigma from B's and K's uncertainty (kept when the bootstrap sets it)
   double q_sigma_dof = 0;  // > 0: Q^2's sigma is estimated from that many degrees of freedom (Student t intervals)
   int j_used = 0;
 };
@@ -500,7 +501,7 @@ double sawtoothLostSigma(const SplitAngleFactors& fac, double q2, double mean_ra
 // constant is taken from the exact factor v_n (splitAngleFactors) rather than from the ideal octaves: sym8's
 // measured v_n / sum_j 2^j is 0.0521-0.0529 for L = 6-10 against 1 / (2 pi^2) = 0.0507 for sharp octaves. B and K
 // get the white constant times their octave-shape ratios (1.082, 1.167). Without it the removed angle's B share
-// was read as quantization: Q +0.24 % (median; 1.3 of its sigma) at B 30 deg/h, N 0.25 deg/sqrt(h), Q 2 arcsec.
+// was read as quantization: Q +0.25 % (median; mean z +1.3) at B 30 deg/h, N 0.25 deg/sqrt(h), Q 2 arcsec.
 double removedAngleOfLongerTerms(const LevelModel& lm, const SplitAngleFactors& fac, double tau0, int level) {
   if (!(lm.b2 > 0) && !(lm.k2 > 0)) return 0.0;
   const double flicker_shape = 1.5 / std::log(2.0) / 2.0, walk_shape = (7.0 / 3.0) / 2.0;
@@ -577,6 +578,7 @@ QnEstimate iterateQn(const LevelModel& lm, const SplitAngleFactors& fac, const A
     const double dq2 = -(fac.v_n * tau0 * dn2 + dother) / v_q_eff;
     e.n2_sigma = std::hypot(e.n2_sigma, dn2);
     e.q2_sigma = std::hypot(e.q2_sigma, dq2);
+    e.q2_sigma_longer = std::hypot(e.q2_sigma_longer, dq2);
   }
   if (!r->quantization_white && e.n2 > 0) {
     // N's levels carry the sawtooth's skirt too (the free fit's gamma a_j, white-shaped): the same relative allowance
@@ -730,7 +732,7 @@ void sawtoothBootstrap(double tau0, int64_t n, const WaveletSplitOptions& option
   const double inflate = std::sqrt(1.0 + 1.0 / R);
   e->q2 -= b.q2_bias;
   e->n2 -= b.n2_bias;
-  e->q2_sigma = b.q2_sd * inflate;
+  e->q2_sigma = std::hypot(b.q2_sd * inflate, e->q2_sigma_longer);  // the replicas hold no B or K
   e->q_sigma_dof = R - 1;
   // N^2: the replicas' N scatter came out below the records' actual one (0.9-1.1 % of N against 1.0-1.4 %, tuning
   // seeds 1-60; with it, mean err^2 / sigma^2 of N was 1.7), so N keeps the level fit's own sigma, less the skirt
