@@ -93,21 +93,23 @@ std::vector<int64_t> tauGridFactors(const TauGrid& grid, int64_t max_m) {
 
 // ------------------------------------------------------------------------------------------------ phase
 namespace {
-/// Sum of f(v[i]) in four double lanes per block of 1024 (vectorisable), the blocks added in long double: as accurate
-/// as a long-double loop for a mean, about 4x faster (x87 arithmetic does not vectorise).
-template <class F>
-long double blockedSum(const double* v, size_t n, F f) {
+/// Sum of term(i) over i = 0..count-1 with four independent double partial sums (no loop-carried add chain:
+/// vectorisable, and ~3x faster than one accumulator), moved to long double every 1024 terms: as accurate as a
+/// long-double loop for these sums (x87 arithmetic does not vectorise). The rate-to-angle mean and the Allan sums
+/// (sumSquares) use it.
+template <class Term>
+long double laneSum(int64_t count, const Term& term) {
   long double total = 0;
-  for (size_t i = 0; i < n;) {
-    const size_t end = std::min(n, i + 1024);
+  for (int64_t i = 0; i < count;) {
+    const int64_t end = std::min(count, i + 1024);
     double a0 = 0, a1 = 0, a2 = 0, a3 = 0;
     for (; i + 4 <= end; i += 4) {
-      a0 += f(v[i]);
-      a1 += f(v[i + 1]);
-      a2 += f(v[i + 2]);
-      a3 += f(v[i + 3]);
+      a0 += term(i);
+      a1 += term(i + 1);
+      a2 += term(i + 2);
+      a3 += term(i + 3);
     }
-    for (; i < end; ++i) a0 += f(v[i]);
+    for (; i < end; ++i) a0 += term(i);
     total += (a0 + a1) + (a2 + a3);
   }
   return total;
@@ -121,7 +123,8 @@ std::vector<double> rateToAngle(const std::vector<double>& rate, double tau0) {
   const double* v = rate.data();
   const size_t n = rate.size();
   const auto nl = static_cast<long double>(n);
-  long double mean = blockedSum(v, n, [](double a) { return a; }) / nl;
+  const auto count = static_cast<int64_t>(n);
+  long double mean = laneSum(count, [v](int64_t i) { return v[i]; }) / nl;
   if (!std::isfinite(static_cast<double>(mean))) {
     // A non-finite sample, or finite ones whose double partial sums overflow: name the first, else sum again in
     // long double (its range holds any sum of doubles).
@@ -135,7 +138,7 @@ std::vector<double> rateToAngle(const std::vector<double>& rate, double tau0) {
   // second pass corrects the mean for the rounding of the first (compensated mean); in long double when the double
   // lanes overflow (rates near the double range, e.g. alternating +-1e308)
   const double m0 = static_cast<double>(mean);
-  long double corr = blockedSum(v, n, [m0](double a) { return a - m0; });
+  long double corr = laneSum(count, [v, m0](int64_t i) { return v[i] - m0; });
   if (!std::isfinite(static_cast<double>(corr))) {
     corr = 0;
     for (size_t i = 0; i < n; ++i) corr += static_cast<long double>(v[i]) - static_cast<long double>(m0);
@@ -173,29 +176,13 @@ struct SquareAccumulator {
   }
 };
 
-/// Sum of term(i)^2 over i = 0..count-1 with four independent double partial sums (no loop-carried add chain, so
-/// the overlapping estimators run at memory speed, ~3x faster than one accumulator), moved to long double every
-/// 1024 terms like SquareAccumulator.
+/// Sum of term(i)^2 over i = 0..count-1 (laneSum: the overlapping estimators run at memory speed).
 template <class Term>
 long double sumSquares(int64_t count, const Term& term) {
-  long double total = 0;
-  for (int64_t i = 0; i < count;) {
-    const int64_t end = std::min(count, i + 1024);
-    double a0 = 0, a1 = 0, a2 = 0, a3 = 0;
-    for (; i + 4 <= end; i += 4) {
-      const double d0 = term(i), d1 = term(i + 1), d2 = term(i + 2), d3 = term(i + 3);
-      a0 += d0 * d0;
-      a1 += d1 * d1;
-      a2 += d2 * d2;
-      a3 += d3 * d3;
-    }
-    for (; i < end; ++i) {
-      const double d = term(i);
-      a0 += d * d;
-    }
-    total += (a0 + a1) + (a2 + a3);
-  }
-  return total;
+  return laneSum(count, [&term](int64_t i) {
+    const double d = term(i);
+    return d * d;
+  });
 }
 
 void sumsAdev(const double* x, int64_t n, int64_t m, bool overlapping, SegmentSums* s) {

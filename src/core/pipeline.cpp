@@ -235,17 +235,23 @@ struct PipelineRun {
   void settleAccelSanitize() {
     if (!accel_sanitized.valid()) return;
     accel_sanitized.get();
-    accel_settled = true;
-    if (!accel_sanitize_error.empty() || !accel_published) {
+    if (!accel_published) {
       sa = SanitizedSeries();
+      accel_settled = true;
       return;
     }
+    restrictAccel();
+  }
+
+  /// The sanitized accelerometer restricted to the gyro's static stretch, its stamps freed (sa settled).
+  void restrictAccel() {
     try {
-      if (meta.rest_restricted) sa.restrictToTime(rest_t0, rest_t1);  // the gyro's static stretch
+      if (accel_sanitize_error.empty() && meta.rest_restricted) sa.restrictToTime(rest_t0, rest_t1);
     } catch (const std::exception& e) {
       accel_sanitize_error = e.what();
     }
     std::vector<double>().swap(sa.t);
+    accel_settled = true;
   }
 
   /// Checks the input's shape, sanitizes the stamps and gyro samples, and takes the stamp report and tau0 into meta.
@@ -415,8 +421,7 @@ struct PipelineRun {
       try {
         if (!accel_settled) {  // jobs = 1, or the thread could not be started: sanitized here
           sanitizeAccel();
-          if (accel_sanitize_error.empty() && meta.rest_restricted) sa.restrictToTime(rest_t0, rest_t1);
-          std::vector<double>().swap(sa.t);
+          restrictAccel();
         }
         t_c.clear();
         if (!accel_sanitize_error.empty()) throw std::invalid_argument(accel_sanitize_error);

@@ -13,10 +13,10 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
-#include <ctime>
 #include <climits>
 #include <condition_variable>
 #include <cmath>
+#include <ctime>
 #include <cstdio>
 #include <cstring>
 #include <exception>
