@@ -605,21 +605,34 @@ struct GlsFit {
   // That estimate is unconstrained: one at or below K's threshold is dropped by its correction (infer). B and R keep
   // the selected set's values (session 13 took every selected term's from the larger set at once: B improved and K's
   // detection fell; docs/calibration.md, "Session 23").
+  // A selected K also has a dropped B's column free where the full model clipped B to 0 (since session 25): the
+  // full model's K had taken up B's floor there, so B was not among its positive columns, and K's estimate without
+  // B's column kept that floor (kr_big, seeds 30861-31260: B at 0 in the full model in 7 of the 15 records with a
+  // supported K, whose modelled sd at the truth was a quarter of the class's median; docs/calibration.md,
+  // "Session 25").
   void inferAll(const Whitened& w) {
     inf.assign(static_cast<size_t>(ncol), TermInference{});
     std::vector<int> ucols = pos;
     for (int col : ieee_cols)
       if (!(c[col] > 0) && c_full[col] > 0) ucols.push_back(col);
+    std::vector<int> kcols = ucols;
+    const int b_col = columnOf(kBiasInstability);
+    if (b_col >= 0 && !(c[b_col] > 0) && std::find(kcols.begin(), kcols.end(), b_col) == kcols.end())
+      kcols.push_back(b_col);
     if (!pos.empty()) {
-      Eigen::VectorXd est, est_sel;
-      Eigen::MatrixXd cov, cov_sel;
+      Eigen::VectorXd est, est_sel, est_k;
+      Eigen::MatrixXd cov, cov_sel, cov_k;
       solveFree(w, ucols, &est, &cov);
       solveFree(w, pos, &est_sel, &cov_sel);
+      const bool own_k = kcols.size() != ucols.size() && columnOf(kRateRandomWalk) >= 0 &&
+                         c[columnOf(kRateRandomWalk)] > 0;
+      if (own_k) solveFree(w, kcols, &est_k, &cov_k);
       for (size_t k = 0; k < pos.size(); ++k) {
         const int t = P.term[static_cast<size_t>(pos[k])];
-        const bool arw = t == kAngleRandomWalk;
-        const Eigen::MatrixXd& cv = arw ? cov_sel : cov;
-        infer(pos[k], arw ? pos : ucols, k, t == kRateRandomWalk ? est[static_cast<int>(k)] : c[pos[k]],
+        const bool arw = t == kAngleRandomWalk, rrw = t == kRateRandomWalk;
+        const Eigen::MatrixXd& cv = arw ? cov_sel : (rrw && own_k ? cov_k : cov);
+        const double x = rrw ? (own_k ? est_k : est)[static_cast<int>(k)] : c[pos[k]];
+        infer(pos[k], arw ? pos : (rrw && own_k ? kcols : ucols), k, x,
               std::sqrt(std::max(0.0, cv(static_cast<int>(k), static_cast<int>(k)) * r.uncertainty_inflation)));
       }
     }
