@@ -514,8 +514,8 @@ struct GlsFit {
   // a weak term is selected only when it came out high, and its plain least-squares value was biased up (+50 %
   // for a rate random walk near the detection limit). A selected term whose corrected value is 0 is dropped.
   // The columns whose uncertainty counts: for a selected term, the selected terms and those the full model had (a
-  // term below the selection threshold still trades with its neighbours); for a dropped term, the selected terms,
-  // itself and a dropped partner (jointEstimate; below).
+  // term below the selection threshold still trades with its neighbours; a selected K also a dropped B, inferAll);
+  // for a dropped term, the selected terms, itself and a dropped partner (jointEstimate; below).
 
   // sd of the estimate of column `col` (at position pos_in_cols of cols) when its true weight is x.
   double sdAt(const std::vector<int>& cols, size_t pos_in_cols, int col, double x) const {
@@ -608,8 +608,8 @@ struct GlsFit {
   // A selected K also has a dropped B's column free where the full model clipped B to 0 (since session 25): the
   // full model's K had taken up B's floor there, so B was not among its positive columns, and K's estimate without
   // B's column kept that floor (kr_big, seeds 30861-31260: B at 0 in the full model in 7 of the 15 records with a
-  // supported K, whose modelled sd at the truth was a quarter of the class's median; docs/calibration.md,
-  // "Session 25").
+  // supported K, whose modelled sd at the truth was 1.1e-13 against 7-9e-13 in the class's other records;
+  // docs/calibration.md, "Session 25"). K's sigma (its sd0) comes from the same columns.
   void inferAll(const Whitened& w) {
     inf.assign(static_cast<size_t>(ncol), TermInference{});
     std::vector<int> ucols = pos;
