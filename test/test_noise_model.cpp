@@ -453,6 +453,14 @@ FitResult fitRandomWalkCase(double b_deg_h) {
   return fitNoiseModel(c);
 }
 
+// The cases' preconditions: a GLS fit with B dropped and K selected.
+void assertKSelectedBDropped(const FitResult& f) {
+  ASSERT_TRUE(f.ok) << f.message;
+  ASSERT_TRUE(f.gls);
+  ASSERT_FALSE(f.terms[kBiasInstability].supported) << "the case needs B dropped";
+  ASSERT_TRUE(f.terms[kRateRandomWalk].supported);
+}
+
 // The answer's K: supported, within 1 % of the truth, inside its 68 % interval.
 void expectAnsweredKAtTruth(const FitResult& f) {
   const Coefficient& k = f.terms_corrected[kRateRandomWalk];
@@ -470,10 +478,7 @@ void expectAnsweredKAtTruth(const FitResult& f) {
 // (+9.7 %); on records this was part of the supported K's bias (docs/calibration.md, "Session 23").
 TEST(NoiseModel, SelectedRandomWalkIsNotRaisedByADroppedFlicker) {
   const FitResult f = fitRandomWalkCase(1.0);
-  ASSERT_TRUE(f.ok) << f.message;
-  ASSERT_TRUE(f.gls);
-  ASSERT_FALSE(f.terms[kBiasInstability].supported) << "the case needs B dropped";
-  ASSERT_TRUE(f.terms[kRateRandomWalk].supported);
+  ASSERT_NO_FATAL_FAILURE(assertKSelectedBDropped(f));
   EXPECT_GT(f.terms[kRateRandomWalk].value / kCaseK, 1.05) << "the selected set's K takes up B";
   expectAnsweredKAtTruth(f);
 }
@@ -483,10 +488,7 @@ TEST(NoiseModel, SelectedRandomWalkIsNotRaisedByADroppedFlicker) {
 // columns the selected K's estimate came from; with B's column free the estimate is the truth.
 TEST(NoiseModel, SelectedRandomWalkIgnoresAFlickerDeficitTheFullModelClipped) {
   const FitResult f = fitRandomWalkCase(-1.0);
-  ASSERT_TRUE(f.ok) << f.message;
-  ASSERT_TRUE(f.gls);
-  ASSERT_FALSE(f.terms[kBiasInstability].supported) << "the case needs B dropped";
-  ASSERT_TRUE(f.terms[kRateRandomWalk].supported);
+  ASSERT_NO_FATAL_FAILURE(assertKSelectedBDropped(f));
   EXPECT_LT(f.terms[kRateRandomWalk].value / kCaseK, 0.98) << "the selected set's K takes up the deficit";
   expectAnsweredKAtTruth(f);
 }
@@ -496,8 +498,6 @@ TEST(NoiseModel, SelectedRandomWalkIgnoresAFlickerDeficitTheFullModelClipped) {
 // session 23's every-column variant).
 TEST(NoiseModel, SelectedRandomWalkWithoutAFlickerKeepsItsValue) {
   const FitResult f = fitRandomWalkCase(0.0);
-  ASSERT_TRUE(f.ok) << f.message;
-  ASSERT_TRUE(f.gls);
-  ASSERT_FALSE(f.terms[kBiasInstability].supported);
+  ASSERT_NO_FATAL_FAILURE(assertKSelectedBDropped(f));
   expectAnsweredKAtTruth(f);
 }
