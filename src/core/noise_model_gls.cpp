@@ -615,17 +615,16 @@ struct GlsFit {
     std::vector<int> ucols = pos;
     for (int col : ieee_cols)
       if (!(c[col] > 0) && c_full[col] > 0) ucols.push_back(col);
+    // A dropped B is in ucols exactly when the full model holds it; a selected K adds it where it does not.
+    const int b_col = columnOf(kBiasInstability), k_col = columnOf(kRateRandomWalk);
+    const bool own_k = b_col >= 0 && k_col >= 0 && c[k_col] > 0 && !(c[b_col] > 0) && !(c_full[b_col] > 0);
     std::vector<int> kcols = ucols;
-    const int b_col = columnOf(kBiasInstability);
-    if (b_col >= 0 && !(c[b_col] > 0) && std::find(kcols.begin(), kcols.end(), b_col) == kcols.end())
-      kcols.push_back(b_col);
+    if (own_k) kcols.push_back(b_col);
     if (!pos.empty()) {
       Eigen::VectorXd est, est_sel, est_k;
       Eigen::MatrixXd cov, cov_sel, cov_k;
       solveFree(w, ucols, &est, &cov);
       solveFree(w, pos, &est_sel, &cov_sel);
-      const bool own_k = kcols.size() != ucols.size() && columnOf(kRateRandomWalk) >= 0 &&
-                         c[columnOf(kRateRandomWalk)] > 0;
       if (own_k) solveFree(w, kcols, &est_k, &cov_k);
       for (size_t k = 0; k < pos.size(); ++k) {
         const int t = P.term[static_cast<size_t>(pos[k])];
