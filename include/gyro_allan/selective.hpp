@@ -6,11 +6,26 @@
 
 namespace gyro_allan {
 
+/// Third cumulant of an estimate X as a function of the true value mu, in the spectral form of avar_skewness.hpp:
+/// kappa3(mu) = kappa2(mu)^2 I3(mu) / I2(mu)^2 (kappa2 its variance without the rate ramp's share, I2 and I3
+/// polynomials in mu). Empty (all zero): X is normal.
+struct ThirdCumulantModel {
+  double k0 = 0, k1 = 0, k2 = 0;   ///< kappa2(mu) = k0 + k1 mu + k2 mu^2
+  double i2[3] = {0, 0, 0};        ///< I2(mu) = i2[0] + i2[1] mu + i2[2] mu^2
+  double i3[4] = {0, 0, 0, 0};     ///< I3(mu) = i3[0] + ... + i3[3] mu^3
+  double at(double mu) const;
+};
+
 /// Variance of an estimate X as a function of the true value mu: var(X | mu) = v0 + v1 mu + v2 mu^2 (the Allan-variance
 /// scatter grows with the term itself, so a fixed sigma makes the upper side of an interval too short).
 struct VarianceModel {
   double v0 = 0, v1 = 0, v2 = 0;
   double cap_mu = std::numeric_limits<double>::infinity();  ///< beyond this mu the variance is held at its value there
+  /// The estimate's third cumulant; where it is set, a selected term's pivot takes X as a shifted gamma (Pearson
+  /// type III) with this variance and skew instead of a normal (the dropped branch and droppedIntervalFC stay normal).
+  ThirdCumulantModel kappa3;
+  /// Skewness of X at mu (0 without a third cumulant), held within [-2, 2].
+  double skewAt(double mu) const;
   double at(double mu) const;
   /// Where a term with this scatter enters a selection that keeps it when x^2 > penalty * var(x): the fixed point
   /// x = sqrt(penalty * (v0 + v1 x + v2 x^2)) (cap_mu ignored), +inf when penalty * v2 >= 1 (the relative sd never
@@ -27,7 +42,8 @@ struct SelectionEvent {
   double threshold = 0;
 };
 
-/// P(X <= x | event; mu) for X ~ N(mu, var(mu)): the pivot, decreasing in mu.
+/// P(X <= x | event; mu) for X ~ N(mu, var(mu)) (a selected event with a third cumulant: the shifted gamma): the
+/// pivot, decreasing in mu.
 double selectivePivot(double x, double mu, const VarianceModel& v, const SelectionEvent& e);
 
 /// The mu >= 0 at which the pivot equals p (0 when the pivot at mu = 0 is already <= p).

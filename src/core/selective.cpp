@@ -6,6 +6,8 @@
 #include <limits>
 #include <vector>
 
+#include <boost/math/special_functions/gamma.hpp>
+
 namespace gyro_allan {
 namespace {
 
@@ -16,6 +18,25 @@ double logUpperTail(double z) {
   return -0.5 * z2 - std::log(z) - 0.5 * std::log(2.0 * M_PI) + std::log1p(-1.0 / z2 + 3.0 / (z2 * z2));
 }
 
+// log P(X > x | mu) for X with mean mu, the model's variance and skew g: normal where |g| < 0.02, else the shifted
+// gamma X = mu + s (G - k) / sqrt(k), G ~ Gamma(k, 1), k = 4 / g^2 (mirrored for g < 0).
+double logUpper(double x, double mu, const VarianceModel& v) {
+  const double s = std::sqrt(v.at(mu));
+  const double z = (x - mu) / s;
+  const double g = v.skewAt(mu);
+  if (!(std::fabs(g) >= 0.02)) return logUpperTail(z);
+  const double k = 4.0 / (g * g), rk = std::sqrt(k);
+  const double q = g > 0 ? k + rk * z : k - rk * z;
+  if (g > 0) {
+    if (q <= 0) return 0.0;
+    const double p = boost::math::gamma_q(k, q);
+    return p > 0 ? std::log(p) : logUpperTail(z) - 700.0;  // beyond double range: far below any other tail
+  }
+  if (q <= 0) return -std::numeric_limits<double>::infinity();
+  const double p = boost::math::gamma_p(k, q);
+  return p > 0 ? std::log(p) : -std::numeric_limits<double>::infinity();
+}
+
 constexpr double kP68 = 0.15865525393145707;  // each tail of a two-sided 68.27 % interval
 constexpr double kP95 = 0.025;
 
@@ -24,6 +45,20 @@ constexpr double kP95 = 0.025;
 double VarianceModel::at(double mu) const {
   mu = std::min(mu, cap_mu);
   return std::max(0.0, v0 + v1 * mu + v2 * mu * mu);
+}
+
+double ThirdCumulantModel::at(double mu) const {
+  const double i2m = i2[0] + mu * (i2[1] + mu * i2[2]), i3m = i3[0] + mu * (i3[1] + mu * (i3[2] + mu * i3[3]));
+  const double v = k0 + mu * (k1 + mu * k2);
+  if (!(i2m > 0) || !(v > 0)) return 0.0;
+  return v * v * i3m / (i2m * i2m);
+}
+
+double VarianceModel::skewAt(double mu) const {
+  const double var = at(mu);
+  if (!(var > 0)) return 0.0;
+  const double g = kappa3.at(std::min(mu, cap_mu)) / (var * std::sqrt(var));
+  return std::isfinite(g) ? std::clamp(g, -2.0, 2.0) : 0.0;
 }
 
 double VarianceModel::entryThreshold(double penalty) const {
@@ -63,7 +98,9 @@ double selectivePivot(double x, double mu, const VarianceModel& v, const Selecti
   const double zx = (x - mu) / s, zt = (e.threshold - mu) / s;
   if (e.selected) {  // X >= T: 1 - Q(zx)/Q(zT)
     if (x <= e.threshold) return 0.0;
-    return std::clamp(1.0 - std::exp(logUpperTail(zx) - logUpperTail(zt)), 0.0, 1.0);
+    const double lx = logUpper(x, mu, v), lt = logUpper(e.threshold, mu, v);
+    if (!std::isfinite(lt)) return 1.0;
+    return std::clamp(1.0 - std::exp(lx - lt), 0.0, 1.0);
   }
   if (x >= e.threshold) return 1.0;  // X < T: Phi(zx)/Phi(zT)
   return std::clamp(std::exp(logUpperTail(-zx) - logUpperTail(-zt)), 0.0, 1.0);
