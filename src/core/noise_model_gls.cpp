@@ -765,12 +765,12 @@ struct GlsFit {
 bool isCloseRival(int selected_terms, int rival_terms, double score_gap, double aic_gap, const FitOptions& options) {
   if (std::min(score_gap, aic_gap) < kRivalGap) return true;
   const std::bitset<kNumTerms> sel(static_cast<unsigned>(selected_terms)), rival(static_cast<unsigned>(rival_terms));
-  if (sel.count() != rival.count()) return false;
   double entry = 0.0;  // the dearest entry among the terms the swap takes out
   for (int t = 0; t < kNumTerms; ++t)
     if (sel[static_cast<size_t>(t)] && !rival[static_cast<size_t>(t)])
       entry = std::max(entry, entryPenalty(t, options));
-  return aic_gap < entry;
+  const double chi2_gap = aic_gap - 2.0 * (static_cast<double>(rival.count()) - static_cast<double>(sel.count()));
+  return chi2_gap < entry;
 }
 
 namespace detail {
