@@ -160,7 +160,7 @@ struct FitResult {
 /// AIC's + 2); a rival counts when it is within 2 on either: on the score (a smaller
 /// rival, which the heavier charge favours) or on AIC (a larger one: e.g. N + B + R fitting as well in chi-squared as
 /// the N + K that parsimony chose). Not tuned on the coverage study (docs/calibration.md, "Sessions 12-13"). A rival
-/// of the same size also counts within a larger chi-squared difference (isCloseRival).
+/// also counts within the entry penalty, in chi-squared, of a term it does without (isCloseRival).
 constexpr double kRivalGap = 2.0;
 
 /// Whether the non-nested rival `rival_terms` (a bit set, 1 << term) counts as close to the selection

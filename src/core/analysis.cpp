@@ -492,8 +492,8 @@ AxisAnalysis AxisStages::finish() {
       char buf[1200];
       std::snprintf(buf, sizeof buf,
                     "ambiguous terms (%s): other sets of terms tell the record about as well, within %g of the "
-                    "selection in chi-squared + penalties or in AIC, or a set of the same size within the entry "
-                    "penalty of a term it swaps out in chi-squared (%s; the first trails by %.3g, negative when it "
+                    "selection in chi-squared + penalties or in AIC, or within the entry penalty of a term it does "
+                    "without in chi-squared (%s; the first trails by %.3g, negative when it "
                     "fits better); a selected term a rival does without is reported as an upper bound, and the "
                     "intervals of a rival's terms reach its values",
                     amb.c_str(), kRivalGap, rivals.c_str(),

@@ -617,10 +617,10 @@ struct GlsFit {
       // threshold's it covered 100 % at 68 % (docs/calibration.md).
       vm.cap_mu = std::max(0.0, ti.event.threshold);
     }
-    // A selected rate random walk's estimate is read from the longest taus, whose Allan points are right-skewed: its
-    // skew at the truth was 0.4-1.3 on simulated gyros, and a normal model's winner's-curse correction left the kept
-    // values high (kvis: +7 % median on seeds 30861-31060 with a normal model, +3 % with the skew in;
-    // docs/calibration.md, "Session 26"). Not with extra terms: their share of the points is not in the spectral form.
+    // A selected rate random walk's estimate is read from the longest taus, whose Allan points are right-skewed (its
+    // skew 0.4-1.7 on simulated gyros), and a normal model's winner's-curse correction left the kept values high
+    // (kvis: +7 % median on seeds 30861-31060 with a normal model, +2 % with the skew in; docs/calibration.md,
+    // "Session 26"). Not with extra terms: their share of the points is not in the spectral form.
     if (selected && t == kRateRandomWalk && extras.empty()) vm.kappa3 = thirdCumulant(cols, k, mu);
     ti.est = selectiveEstimate(x, vm, ti.event);
     if (selected && t < kNumTerms && !(ti.est.median > 0)) {
