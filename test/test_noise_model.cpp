@@ -336,7 +336,7 @@ TEST(NoiseModel, SwapMustBeWonByAnEntrysWorth) {
 
 // isCloseRival itself, case by case (FitOptions' penalties: 4 per term, 6 for the ramp): within kRivalGap on either
 // scale always; a swap within the swapped-out term's penalty in chi-squared (the AIC gap), strictly below; a ramp
-// swapped out needs 6, not the score gap's 8; a rival of another size only within kRivalGap.
+// swapped out needs 6, not the score gap's 8; a larger rival within the penalty in chi-squared (since session 26).
 TEST(NoiseModel, CloseRivalRuleCaseByCase) {
   const FitOptions o;
   const int N = 1 << kAngleRandomWalk, B = 1 << kBiasInstability, K = 1 << kRateRandomWalk, R = 1 << kRateRamp;
@@ -350,11 +350,10 @@ TEST(NoiseModel, CloseRivalRuleCaseByCase) {
   EXPECT_FALSE(isCloseRival(N | K, N | R, 7.5, 5.5, o));    // K swapped out: 4, whatever the ramp costs
   EXPECT_TRUE(isCloseRival(N | K, N | R, 5.5, 3.5, o));
   EXPECT_TRUE(isCloseRival(N | K, N | B | R, 5.0, 1.5, o));   // on AIC's side
-  // Another size (since session 26): the AIC gap less 2 per extra rival term is the chi-squared difference.
-  EXPECT_TRUE(isCloseRival(N | K, N | B | R, 7.0, 5.9, o));   // one more term: chi-squared 3.9 < K's 4
-  EXPECT_FALSE(isCloseRival(N | K, N | B | R, 8.0, 6.0, o));  // 4.0: not within
-  EXPECT_TRUE(isCloseRival(N | B | R, N | K, 5.0, 3.5, o));   // one fewer: chi-squared 5.5 < the ramp's 6
-  EXPECT_FALSE(isCloseRival(N | B | R, N | K, 5.0, 4.5, o));  // 6.5
+  // A larger rival (since session 26): the AIC gap less 2 per extra rival term is the chi-squared difference; the
+  // score gap is that plus the rival's extra penalties (B 4 and R 6 for K's 4: + 6).
+  EXPECT_TRUE(isCloseRival(N | K, N | B | R, 9.9, 5.9, o));   // one more term: chi-squared 3.9 < K's 4
+  EXPECT_FALSE(isCloseRival(N | K, N | B | R, 10.0, 6.0, o));  // 4.0: not within
   EXPECT_FALSE(isCloseRival(N | B | K, Q | N | B, 5.06, 5.06, o));  // validation's consumer record (seed 24019)
   FitOptions heavy;
   heavy.term_penalty = 9.0;  // the limit follows the options' penalty
@@ -414,6 +413,9 @@ TEST(NoiseModel, RandomWalkChosenOverALargerRivalWithinItsEntryIsABound) {
   const FitResult& f = answerFit(r);
   ASSERT_EQ(f.rival_terms, (1 << kAngleRandomWalk) | (1 << kBiasInstability) | (1 << kRateRamp));
   ASSERT_GT(f.rival_aic_gap, kRivalGap);  // not close by kRivalGap alone
+  ASSERT_LT(f.rival_aic_gap - 2.0, FitOptions{}.term_penalty);  // but within K's entry in chi-squared
+  ASSERT_FALSE(f.close_rival_terms.empty());
+  EXPECT_EQ(f.close_rival_terms.front(), f.rival_terms);
   const std::array<bool, kNumTerms> amb = answerAmbiguous(r);
   EXPECT_TRUE(amb[kRateRandomWalk]);
   const Coefficient& k = r.coefficients[kRateRandomWalk];

@@ -136,42 +136,46 @@ TEST(Selective, SelectedDrawsAreCoveredAndMedianUnbiased) {
   }
 }
 
-// A right-skewed estimate (the long-tau Allan points behind a rate random walk: shifted gamma, skew 1) selected above a
-// threshold. With its third cumulant in the model the selected draws are covered and the corrected value is
-// median-unbiased; the normal model, on the same draws, keeps the selected values too high (the winner's curse is
-// larger than a normal tail allows).
+// A skewed estimate selected above a threshold: right-skewed like the long-tau Allan points behind a rate random walk
+// (shifted gamma, skew 1), and its mirror (skew -1, the gamma_p branch). With its third cumulant in the model the
+// selected draws are covered and the corrected value is median-unbiased; the normal model, on the same draws, keeps
+// the right-skewed selected values too high (the winner's curse is larger than a normal tail allows) and corrects
+// the left-skewed ones too far.
 TEST(Selective, SkewedSelectedDrawsAreCoveredWithTheirThirdCumulant) {
-  const double mu = 1.5, var = 1.0, g = 1.0, k = 4.0 / (g * g);
-  VarianceModel skewed;
-  skewed.v0 = var;
-  skewed.kappa3.k0 = var;  // kappa3 = k0^2 i3 / i2^2 = var^2 g / sqrt(var): skew g at every mu
-  skewed.kappa3.i2[0] = 1.0;
-  skewed.kappa3.i3[0] = g / std::sqrt(var);
-  ASSERT_NEAR(skewed.skewAt(mu), g, 1e-12);
-  VarianceModel normal;
-  normal.v0 = var;
-  std::mt19937_64 rng(20261127u);
-  std::gamma_distribution<double> gam(k, 1.0);
-  Tally with, without;
-  for (int i = 0; i < 20000; ++i) {
-    const double x = mu + std::sqrt(var) * (gam(rng) - k) / std::sqrt(k);
-    const SelectionEvent e{true, 2.0};
-    if (x < e.threshold) continue;
-    for (Tally* t : {&with, &without}) {
-      const SelectiveEstimate est = selectiveEstimate(x, t == &with ? skewed : normal, e);
-      ++t->n;
-      t->in68 += est.lo68 <= mu && mu <= est.hi68;
-      t->in95 += est.lo95 <= mu && mu <= est.hi95;
-      t->below_median += est.median < mu;
+  for (double g : {1.0, -1.0}) {
+    const double mu = 1.5, var = 1.0, k = 4.0 / (g * g);
+    VarianceModel skewed;
+    skewed.v0 = var;
+    skewed.kappa3.k0 = var;  // kappa3 = k0^2 i3 / i2^2 = var^2 g / sqrt(var): skew g at every mu
+    skewed.kappa3.i2[0] = 1.0;
+    skewed.kappa3.i3[0] = g / std::sqrt(var);
+    ASSERT_NEAR(skewed.skewAt(mu), g, 1e-12);
+    VarianceModel normal;
+    normal.v0 = var;
+    std::mt19937_64 rng(20261127u);
+    std::gamma_distribution<double> gam(k, 1.0);
+    Tally with, without;
+    for (int i = 0; i < 20000; ++i) {
+      const double x = mu + (g > 0 ? 1.0 : -1.0) * std::sqrt(var) * (gam(rng) - k) / std::sqrt(k);
+      const SelectionEvent e{true, 2.0};
+      if (x < e.threshold) continue;
+      for (Tally* t : {&with, &without}) {
+        const SelectiveEstimate est = selectiveEstimate(x, t == &with ? skewed : normal, e);
+        ++t->n;
+        t->in68 += est.lo68 <= mu && mu <= est.hi68;
+        t->in95 += est.lo95 <= mu && mu <= est.hi95;
+        t->below_median += est.median < mu;
+      }
     }
+    ASSERT_GT(with.n, 2000) << "skew " << g;
+    const double below = static_cast<double>(with.below_median) / with.n;
+    EXPECT_NEAR(below, 0.5, binomialTolerance(0.5, with.n)) << "skew " << g;
+    EXPECT_NEAR(static_cast<double>(with.in68) / with.n, 0.6827, binomialTolerance(0.6827, with.n)) << "skew " << g;
+    EXPECT_NEAR(static_cast<double>(with.in95) / with.n, 0.95, binomialTolerance(0.95, with.n)) << "skew " << g;
+    const double below_normal = static_cast<double>(without.below_median) / without.n;
+    if (g > 0) EXPECT_LT(below_normal, 0.5 - binomialTolerance(0.5, without.n));
+    else EXPECT_GT(below_normal, 0.5 + binomialTolerance(0.5, without.n));
   }
-  ASSERT_GT(with.n, 2000);
-  const double below = static_cast<double>(with.below_median) / with.n;
-  EXPECT_NEAR(below, 0.5, binomialTolerance(0.5, with.n));
-  EXPECT_NEAR(static_cast<double>(with.in68) / with.n, 0.6827, binomialTolerance(0.6827, with.n));
-  EXPECT_NEAR(static_cast<double>(with.in95) / with.n, 0.95, binomialTolerance(0.95, with.n));
-  // The normal model's corrected values sit above the truth in more than half the selected draws.
-  EXPECT_LT(static_cast<double>(without.below_median) / without.n, 0.5 - binomialTolerance(0.5, without.n));
 }
 
 // Dropped draws: the 68 % interval is the unified one of the truncated distribution, at its stated coverage for every

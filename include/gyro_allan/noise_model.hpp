@@ -167,14 +167,17 @@ constexpr double kRivalGap = 2.0;
 /// `selected_terms` (FitResult::close_rival_terms), given how much it trails on the score and on AIC: within kRivalGap
 /// on either, or with a chi-squared difference below the entry penalty (FitOptions::term_penalty, ramp_penalty) of a
 /// term the selection has and the rival lacks. The chi-squared difference is the AIC gap less 2 per term the rival has
-/// beyond the selection's count (a swap of equal size: its AIC gap). A term claimed over a rival must have won by what
+/// beyond the selection's count (a swap of equal size: its AIC gap; a smaller rival: plus 2 per term it lacks, and
+/// with the options' penalties such a rival, which the selection beat on the score, is then never within, so
+/// kRivalGap on the score is what can make it close). For non-nested sets only: the caller passes neither a subset
+/// nor a superset of the selection (a superset's chi-squared is never worse, and it lacks no term). A term claimed over a rival must have won by what
 /// the same term must save to enter a nested set (a ramp 6: K is preferred unless the data demand the ramp). With
 /// kRivalGap alone, N + K won over N + B by 2.3-3.2 in 4 of 400 one-hour tactical and tactical-ramp records (200 Hz,
 /// seeds 23001-23200) where K is far below detection, and was reported at +330 % to +690 % with an interval excluding
-/// the truth (docs/calibration.md, "Session 17"). Rivals of other sizes since session 26: N + K chosen over an N + B +
-/// R that fitted within 4 in chi-squared (a rate random walk far below detection taking up a flicker and a ramp's
-/// rise) kept K in 7 of 200 two-hour records (kr_big, seeds 30861-31060), +32 % in median, 68 % intervals holding the
-/// truth in 3 of 7 (docs/calibration.md, "Session 26").
+/// the truth (docs/calibration.md, "Session 17"). Larger rivals since session 26: a rate random walk far below
+/// detection taking up a flicker's and a ramp's rise was kept (N + K over an N + B + R within 4 in chi-squared) in 5
+/// of the 7 two-hour kr_big records of 200 with a supported K (seeds 30861-31060; the 7 at +32 % in median, 3 of 7
+/// 68 % intervals holding the truth); they now report K as a bound (docs/calibration.md, "Session 26").
 bool isCloseRival(int selected_terms, int rival_terms, double score_gap, double aic_gap, const FitOptions& options);
 
 /// A larger set of terms (the selection plus one or more terms it left out) within this of the selection on AIC

@@ -1,5 +1,5 @@
-// Selective inference for a term that a threshold kept or dropped: truncated-normal pivot, conditional intervals
-// and the conditional median-unbiased estimate (Fithian, Sun & Taylor 2014; the "winner's curse" correction).
+// Selective inference for a term that a threshold kept or dropped: truncated-normal (or shifted-gamma) pivot,
+// conditional intervals and the conditional median-unbiased estimate (Fithian, Sun & Taylor 2014; the "winner's curse" correction).
 #pragma once
 
 #include <limits>
@@ -24,7 +24,8 @@ struct VarianceModel {
   /// The estimate's third cumulant; where it is set, a selected term's pivot takes X as a shifted gamma (Pearson
   /// type III) with this variance and skew instead of a normal (the dropped branch and droppedIntervalFC stay normal).
   ThirdCumulantModel kappa3;
-  /// Skewness of X at mu (0 without a third cumulant), held within [-2, 2].
+  /// Skewness of X at mu (0 without a third cumulant), held within [-2, 2] (the gamma's shape 4 / skew^2 at least 1,
+  /// where its density is finite at the lower end).
   double skewAt(double mu) const;
   double at(double mu) const;
   /// Where a term with this scatter enters a selection that keeps it when x^2 > penalty * var(x): the fixed point

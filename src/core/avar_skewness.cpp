@@ -11,7 +11,7 @@ namespace {
 constexpr int kPerOctave = 64;
 
 // sin^4(pi m nu) / sin^2(pi nu) times 2 / m^2, with sin^4 at its mean 3/8 beyond m nu = 4 (the window's side lobes
-// oscillate faster than the grid resolves there; their mean is what the integrals see).
+// oscillate faster than the grid resolves there: exact for the mean, approximate for the higher powers; header).
 double window(int64_t m, double nu) {
   const double md = static_cast<double>(m);
   const double sn = std::sin(M_PI * nu);

@@ -337,8 +337,7 @@ struct GlsFit {
     c = best_c;
     // Rivals that tell the record with other terms: neither a subset nor a superset of the selection (nested
     // alternatives are what each term's selective interval accounts for), close by isCloseRival (within kRivalGap on
-    // the score or on AIC, a swap within an entry penalty in chi-squared; noise_model.hpp). The closest one is
-    // reported.
+    // the score or on AIC, or within an entry penalty in chi-squared; noise_model.hpp). The closest one is reported.
     int sel = 0;
     double sel_aic = std::numeric_limits<double>::infinity();
     for (int col : ieee_cols)
@@ -532,8 +531,12 @@ struct GlsFit {
   }
 
   // Third cumulant of the estimate at position k of cols (its GLS weights at the full model's covariance, which made
-  // it) at the full model's Q, N and B and a rate random walk of mu, in the spectral form of avar_skewness.hpp; its
-  // variance without the rate ramp's share through the three mu of the variance model.
+  // it: a . y is solveFree's value, up to the ridge whiten() adds to a covariance that is not positive definite) at
+  // the full model's Q, N and B and a rate random walk of mu, in the spectral form of avar_skewness.hpp, with its
+  // variance a' C(mu) a without the rate ramp's share through the three mu of the variance model. The skew the pivot
+  // uses is this over the variance model's variance (VarianceModel::skewAt), which also holds the ramp's share and
+  // the misfit inflation, both taken as unskewed; near mu = 0, where a' C(0) a exceeds the variance model (the
+  // weights were made at the full model), the skew used is the larger.
   ThirdCumulantModel thirdCumulant(const std::vector<int>& cols, size_t k, const double mu[3]) const {
     ThirdCumulantModel tc;
     const int n = static_cast<int>(P.F.rows()), q = static_cast<int>(cols.size());
@@ -543,7 +546,8 @@ struct GlsFit {
     const Eigen::MatrixXd info = fc.transpose() * z;
     Eigen::VectorXd d(q);
     for (int j = 0; j < q; ++j) d[j] = info(j, j) > 0 ? 1.0 / std::sqrt(info(j, j)) : 0.0;
-    const Eigen::MatrixXd inv = (d.asDiagonal() * info * d.asDiagonal()).completeOrthogonalDecomposition().pseudoInverse();
+    const Eigen::MatrixXd scaled = d.asDiagonal() * info * d.asDiagonal();  // solveFree's column scaling
+    const Eigen::MatrixXd inv = scaled.completeOrthogonalDecomposition().pseudoInverse();
     const int kk = static_cast<int>(k);
     const Eigen::VectorXd a = z * (d.asDiagonal() * inv.col(kk)) * d[kk];
     std::array<double, 3> fixed{{0, 0, 0}};
@@ -618,9 +622,9 @@ struct GlsFit {
       vm.cap_mu = std::max(0.0, ti.event.threshold);
     }
     // A selected rate random walk's estimate is read from the longest taus, whose Allan points are right-skewed (its
-    // skew 0.4-1.7 on simulated gyros), and a normal model's winner's-curse correction left the kept values high
-    // (kvis: +7 % median on seeds 30861-31060 with a normal model, +2 % with the skew in; docs/calibration.md,
-    // "Session 26"). Not with extra terms: their share of the points is not in the spectral form.
+    // skew 0.4-1.7 in the simulations of docs/calibration.md, "Session 26"), and a normal model's winner's-curse
+    // correction left the kept values high (kvis, seeds 31521-31720: +11.3 % median with a normal model, +5.4 % with
+    // the skew in). Not with extra terms: their share of the points is not in the spectral form.
     if (selected && t == kRateRandomWalk && extras.empty()) vm.kappa3 = thirdCumulant(cols, k, mu);
     ti.est = selectiveEstimate(x, vm, ti.event);
     if (selected && t < kNumTerms && !(ti.est.median > 0)) {
@@ -765,7 +769,7 @@ struct GlsFit {
 bool isCloseRival(int selected_terms, int rival_terms, double score_gap, double aic_gap, const FitOptions& options) {
   if (std::min(score_gap, aic_gap) < kRivalGap) return true;
   const std::bitset<kNumTerms> sel(static_cast<unsigned>(selected_terms)), rival(static_cast<unsigned>(rival_terms));
-  double entry = 0.0;  // the dearest entry among the terms the swap takes out
+  double entry = 0.0;  // the dearest entry among the selected terms the rival lacks
   for (int t = 0; t < kNumTerms; ++t)
     if (sel[static_cast<size_t>(t)] && !rival[static_cast<size_t>(t)])
       entry = std::max(entry, entryPenalty(t, options));

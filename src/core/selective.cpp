@@ -1,4 +1,5 @@
-// Truncated-normal pivot, conditional intervals and median-unbiased estimates for selected/dropped terms.
+// Truncated-normal (a selected term with a third cumulant: shifted-gamma) pivot, conditional intervals and
+// median-unbiased estimates for selected/dropped terms.
 #include "gyro_allan/selective.hpp"
 
 #include <algorithm>
