@@ -264,7 +264,7 @@ TEST(AvarSkewness, SpectralMeanReproducesEachTerm) {
 // The third cumulant of a fitted rate random walk: the GLS estimate of K (columns N, B, K at the analytic
 // covariance) on 3000 simulated records of 16384 samples (N, B, K crossing at ~20 s). Its skew from the spectral form
 // with the exact variance must be within 10 % of the simulation's plus 3 Monte-Carlo standard errors (from 10
-// batches): the form is an approximation (6-8 % low in the configurations of docs/calibration.md, "Session 26"; with
+// batches): the form is an approximation (6-7 % low in the configurations of docs/calibration.md, "Session 26"; with
 // one common length for all points, 33 % low here, which this tolerance rejects). The variance itself within 10 % (its standard error from 3000
 // draws: 3-4 %).
 TEST(AvarSkewness, ThirdCumulantOfAFittedRandomWalkMatchesSimulation) {

@@ -8,8 +8,8 @@
 // x = sum_i a_i avar(m_i) the windows add with each point's own length in the mean of order r (geometric):
 // phi_r = sum_i a_i n_i^((1 - r) / r) h_{m_i}, I_r = int_0^(1/2) (phi_r S)^r dnu. One common factor on those lengths
 // (the overlap's correlation, end effects) is taken from the exact variance kappa2 (avar_covariance.hpp):
-// kappa3 = kappa2^2 I3 / I2^2. On simulated gyros this is within 5-7 % of the simulated skew of a fitted rate random
-// walk (the same form with one common length, 7-33 % low; test_avar_covariance).
+// kappa3 = kappa2^2 I3 / I2^2. On simulated gyros this is within 6-7 % of the simulated skew of a fitted rate random
+// walk (the same form with one common length, 5-33 % low; test_avar_covariance).
 #pragma once
 
 #include <array>

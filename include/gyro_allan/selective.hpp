@@ -2,6 +2,7 @@
 // conditional intervals and the conditional median-unbiased estimate (Fithian, Sun & Taylor 2014; the "winner's curse" correction).
 #pragma once
 
+#include <array>
 #include <limits>
 
 namespace gyro_allan {
@@ -11,8 +12,8 @@ namespace gyro_allan {
 /// polynomials in mu). Empty (all zero): X is normal.
 struct ThirdCumulantModel {
   double k0 = 0, k1 = 0, k2 = 0;   ///< kappa2(mu) = k0 + k1 mu + k2 mu^2
-  double i2[3] = {0, 0, 0};        ///< I2(mu) = i2[0] + i2[1] mu + i2[2] mu^2
-  double i3[4] = {0, 0, 0, 0};     ///< I3(mu) = i3[0] + ... + i3[3] mu^3
+  std::array<double, 3> i2{};      ///< I2(mu) = i2[0] + i2[1] mu + i2[2] mu^2
+  std::array<double, 4> i3{};      ///< I3(mu) = i3[0] + ... + i3[3] mu^3
   double at(double mu) const;
 };
 

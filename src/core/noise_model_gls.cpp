@@ -539,17 +539,15 @@ struct GlsFit {
   // weights were made at the full model), the skew used is the larger.
   ThirdCumulantModel thirdCumulant(const std::vector<int>& cols, size_t k, const double mu[3]) const {
     ThirdCumulantModel tc;
+    const Whitened w = whiten(P, cov_full);
+    if (!w.ok) return tc;
+    Eigen::VectorXd est;
+    Eigen::MatrixXd cov;  // (F' C^-1 F)^-1 over cols
+    solveFree(w, cols, &est, &cov);
     const int n = static_cast<int>(P.F.rows()), q = static_cast<int>(cols.size());
     Eigen::MatrixXd fc(n, q);
     for (int j = 0; j < q; ++j) fc.col(j) = P.F.col(cols[static_cast<size_t>(j)]);
-    const Eigen::MatrixXd z = cov_full.ldlt().solve(fc);
-    const Eigen::MatrixXd info = fc.transpose() * z;
-    Eigen::VectorXd d(q);
-    for (int j = 0; j < q; ++j) d[j] = info(j, j) > 0 ? 1.0 / std::sqrt(info(j, j)) : 0.0;
-    const Eigen::MatrixXd scaled = d.asDiagonal() * info * d.asDiagonal();  // solveFree's column scaling
-    const Eigen::MatrixXd inv = scaled.completeOrthogonalDecomposition().pseudoInverse();
-    const int kk = static_cast<int>(k);
-    const Eigen::VectorXd a = z * (d.asDiagonal() * inv.col(kk)) * d[kk];
+    const Eigen::VectorXd a = cov_full.ldlt().solve(fc * cov.col(static_cast<int>(k)));  // x = a . y
     std::array<double, 3> fixed{{0, 0, 0}};
     for (int col : ieee_cols) {
       const int t = P.term[static_cast<size_t>(col)];
@@ -566,8 +564,8 @@ struct GlsFit {
     tc.k0 = k2.v0;
     tc.k1 = k2.v1;
     tc.k2 = k2.v2;
-    for (int i = 0; i < 3; ++i) tc.i2[i] = sp.i2[static_cast<size_t>(i)];
-    for (int i = 0; i < 4; ++i) tc.i3[i] = sp.i3[static_cast<size_t>(i)];
+    tc.i2 = sp.i2;
+    tc.i3 = sp.i3;
     return tc;
   }
 
@@ -631,7 +629,6 @@ struct GlsFit {
       // Selected, but its corrected value is 0 (it only just passed): dropped. Its bound is then the plain one-sided
       // one (the conditional set is empty when the estimate sits on the threshold).
       ti.corrected_out = true;
-      vm.kappa3 = ThirdCumulantModel{};
       ti.est = selectiveEstimate(x, vm, SelectionEvent{false, std::numeric_limits<double>::infinity()});
     }
     inf[static_cast<size_t>(col)] = ti;
