@@ -96,16 +96,11 @@ struct AxisAnalysis {
 /// The IEEE fit behind an analysed axis's B, K and R: the wavelet split's fit of the denoised part, pulse_times' fit,
 /// the model check's joint refit when it added effects, else the joint fit.
 const FitResult& answerFit(const AxisAnalysis& a);
-/// The terms of the answer (`coefficients`) that answerFit's close rivals make ambiguous (FitResult::ambiguous);
-/// for the wavelet split only B, K and R, which come from that fit (Q and N come from the split's own estimators),
-/// for pulse_times all but Q (the lattice's pulse weight).
-std::array<bool, kNumTerms> answerAmbiguous(const AxisAnalysis& a);
-/// The terms of the answer whose interval a close larger set of terms widened (FitResult::widened, kSupersetGap);
-/// for the wavelet split only B, K and R (since session 16 it reports its denoised fit's terms_corrected).
-std::array<bool, kNumTerms> answerWidened(const AxisAnalysis& a);
-/// Whether the answer's rate ramp is supported and its 95 % interval allows the rate random walk the record cannot
-/// exclude (FitResult::ramp_bounded_by_random_walk of answerFit).
-bool answerRampBounded(const AxisAnalysis& a);
+/// Correlation magnitude from which two of B, K and R count as trading (FitResult::correlation; tradeNote).
+constexpr double kTradeCorrelation = 0.9;
+/// A note naming the pairs of B, K and R whose free estimates in `f` correlate by at least kTradeCorrelation where
+/// one of the pair in `c` (the answer) is not supported and one has a value; empty when there is none.
+std::string tradeNote(const FitResult& f, const std::array<Coefficient, kNumTerms>& c);
 
 /// Rate samples [rad/s] of one gap-free segment of angle samples, in place: an accumulated angle theta (n points)
 /// gives the n - 1 rates (theta[k+1] - theta[k]) / tau0; increments delta (n) give the n rates delta[k] / tau0.

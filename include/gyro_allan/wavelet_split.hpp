@@ -81,13 +81,9 @@ struct WaveletSplitResult {
 
   DeviationCurve denoised_curve;       ///< oadev of the denoised part
   DeviationCurve removed_curve;        ///< oadev of the removed part
-  /// Q, N, B, K, R with 1-sigma (same layout and units as FitResult::terms); B, K, R are the denoised fit's answer,
-  /// FitResult::terms_corrected (selection-corrected values, a barely selected term dropped, the rival and superset
-  /// rules' intervals).
+  /// Q, N, B, K, R with 1-sigma (same layout and units as FitResult::terms); B, K, R are the denoised fit's. The
+  /// model curve behind the fit errors is drawn from these values.
   std::array<Coefficient, kNumTerms> terms;
-  /// The same with B, K, R at the denoised fit's least-squares values, the model curve behind the fit errors: `terms`
-  /// may report a term as dropped or as a bound that the fit still has.
-  std::array<Coefficient, kNumTerms> model_terms;
   FitResult denoised_fit;              ///< Allan fit of the denoised part (tau >= 4 * 2^level * tau0)
   FitResult removed_fit;               ///< Allan fit of the removed part: 3Q^2/tau^2 + N_r^2/tau
   FitError fit_error;                  ///< combined model vs oadev of the input (rms_log10, chi2_dof)

@@ -11,20 +11,6 @@
 namespace gyro_allan {
 namespace {
 
-/// The flagged terms as a bit set (1 << term), for noiseTermSetName.
-int termBits(const std::array<bool, kNumTerms>& flags) {
-  int b = 0;
-  for (int t = 0; t < kNumTerms; ++t)
-    if (flags[static_cast<size_t>(t)]) b |= 1 << t;
-  return b;
-}
-
-/// Sets of terms (bit sets) for a note: "angle_random_walk+rate_random_walk; angle_random_walk+rate_ramp".
-std::string setNames(const std::vector<int>& sets) {
-  std::string s;
-  for (int terms : sets) s += std::string(s.empty() ? "" : "; ") + noiseTermSetName(terms);
-  return s;
-}
 // A fit is grossly bad when its generalized chi-squared is far out of reach of chance (clean records: p ~ U(0,1),
 // chi2/dof ~ 1 +- 0.4) and large in size: misfits from sawtooth quantization reach chi2/dof 1e3.
 constexpr double kGrossMisfitP = 1e-6;
@@ -396,11 +382,11 @@ AxisAnalysis AxisStages::finish() {
   if (method == "wavelet_split") {
     a.coefficients = a.split.terms;
     FitResult tmp;
-    tmp.terms = a.split.model_terms;  // the curve the split fitted (least squares; `terms` has the corrected B, K, R)
+    tmp.terms = a.split.terms;  // the curve the split fitted
     tmp.tau0 = a.oadev.tau0;          // B's column as the fits have it (noiseTermBasis)
     for (size_t i = 0; i < a.oadev.points.size(); ++i) a.final_model_var[i] = modelVariance(tmp, a.oadev.points[i].tau);
     int n_params = 0;
-    for (const auto& c : a.split.model_terms) n_params += c.supported ? 1 : 0;
+    for (const auto& c : a.split.terms) n_params += c.value > 0 ? 1 : 0;
     a.final_error = fitError(a.oadev, a.final_model_var, a.fit.used, n_params, options.fit.rms_min_edf);
     const FitResult& den = a.split.denoised_fit;
     auto bad = [](double rms, double chi2) { return !quality_limits::notBad(rms, chi2); };
@@ -420,7 +406,7 @@ AxisAnalysis AxisStages::finish() {
                     "(rms_log10 %.3g, chi2/dof %.3g), as for non-white (sawtooth) quantization",
                     a.final_error.rms_log10, a.final_error.chi2_dof);
       a.notes.push_back(note);
-      a.final_error = {den.rms_log10, den.chi2_dof, den.n_rms};
+      a.final_error = fitErrorOf(den);
     } else if (bad(a.final_error.rms_log10, a.final_error.chi2_dof) && slow_counter) {
       char note[300];
       std::snprintf(note, sizeof note,
@@ -431,16 +417,16 @@ AxisAnalysis AxisStages::finish() {
       a.notes.push_back(note);
     }
   } else if (a.has_check && !a.check.effects.empty()) {
-    a.coefficients = a.check.fit_after.terms_corrected;
+    a.coefficients = a.check.fit_after.terms;
     a.final_model_var = a.check.fit_after.model_var;
-    a.final_error = {a.check.after.rms_log10, a.check.after.chi2_dof, a.check.fit_after.n_rms};
+    a.final_error = fitErrorOf(a.check.fit_after);
   } else {
-    a.coefficients = a.fit.terms_corrected;
+    a.coefficients = a.fit.terms;
     a.final_model_var = a.fit.model_var;
-    a.final_error = {a.fit.rms_log10, a.fit.chi2_dof, a.fit.n_rms};
+    a.final_error = fitErrorOf(a.fit);
   }
   // The pulse-time N with its interval widened by the interpolation's systematic error (kPulseTimesSystematic).
-  Coefficient pulse_n = a.pulse_fit.terms_corrected[kAngleRandomWalk];
+  Coefficient pulse_n = a.pulse_fit.terms[kAngleRandomWalk];
   if (a.has_pulse_times && a.pulse_times.ok && a.pulse_fit.ok && pulse_n.supported) {
     pulse_n.sigma = std::hypot(pulse_n.sigma, kPulseTimesSystematic * pulse_n.value);
     pulse_n.lo68 = std::max(0.0, pulse_n.value - pulse_n.sigma), pulse_n.hi68 = pulse_n.value + pulse_n.sigma;
@@ -459,7 +445,7 @@ AxisAnalysis AxisStages::finish() {
                   a.pulse_fit.chi2_dof);
     a.method = "pulse_times";
     a.method_reason = buf;
-    a.coefficients = a.pulse_fit.terms_corrected;
+    a.coefficients = a.pulse_fit.terms;
     a.coefficients[kAngleRandomWalk] = pulse_n;
     // Q: the lattice's pulse weight as white quantization, q / sqrt(12) (the lattice is refined by least squares
     // over the whole record; its relative error is far below 1e-6, used as the interval).
@@ -472,7 +458,7 @@ AxisAnalysis AxisStages::finish() {
     FitResult shown = a.pulse_fit;
     shown.terms[kQuantization] = cq;
     for (size_t i = 0; i < a.oadev.points.size(); ++i) a.final_model_var[i] = modelVariance(shown, a.oadev.points[i].tau);
-    a.final_error = {a.pulse_fit.rms_log10, a.pulse_fit.chi2_dof, a.pulse_fit.n_rms};
+    a.final_error = fitErrorOf(a.pulse_fit);
     a.notes.push_back("pulse_times: " + a.pulse_times.message +
                       "; fit error is that of the reconstructed angle's Allan curve; Q is the pulse weight / sqrt(12)");
   } else if (a.has_pulse_times && !a.pulse_times.ok) {
@@ -484,41 +470,10 @@ AxisAnalysis AxisStages::finish() {
     a.notes.push_back(buf);
   }
   {
-    // Terms a close rival set of terms tells otherwise (noise_model.hpp FitResult::ambiguous): say which and why.
-    const FitResult& f = answerFit(a);
-    const std::array<bool, kNumTerms> ambiguous = answerAmbiguous(a);
-    const std::string amb = noiseTermSetName(termBits(ambiguous), ", "), rivals = setNames(f.close_rival_terms);
-    if (!amb.empty()) {
-      char buf[1200];
-      std::snprintf(buf, sizeof buf,
-                    "ambiguous terms (%s): other sets of terms tell the record about as well, within %g of the "
-                    "selection in chi-squared + penalties or in AIC, or within the entry penalty of a term it does "
-                    "without in chi-squared (%s; the first trails by %.3g, negative when it "
-                    "fits better); a selected term a rival does without is reported as an upper bound, and the "
-                    "intervals of a rival's terms reach its values",
-                    amb.c_str(), kRivalGap, rivals.c_str(),
-                    f.close_rival_gaps.empty() ? f.rival_gap : f.close_rival_gaps.front());
-      a.notes.push_back(buf);
-    }
+    // Terms that trade (FitResult::correlation): say which, and how strongly, where one of them is only a bound.
+    const std::string trade = tradeNote(answerFit(a), a.coefficients);
+    if (!trade.empty()) a.notes.push_back(trade);
   }
-  {
-    // Intervals widened by a close larger set of terms (noise_model.hpp kSupersetGap): say which and why.
-    const FitResult& f = answerFit(a);
-    const std::array<bool, kNumTerms> widened = answerWidened(a);
-    const std::string wid = noiseTermSetName(termBits(widened), ", "), sets = setNames(f.close_superset_terms);
-    if (!wid.empty()) {
-      char buf[800];
-      std::snprintf(buf, sizeof buf,
-                    "interval widened (%s): a larger set of terms tells the record about as well, within %g in AIC "
-                    "(%s); the interval reaches that fit's value, which a term left out would otherwise push",
-                    wid.c_str(), kSupersetGap, sets.c_str());
-      a.notes.push_back(buf);
-    }
-  }
-  if (answerRampBounded(a))
-    a.notes.push_back(
-        "rate ramp's 95 % interval widened: it allows the rate random walk this record cannot exclude (K at the upper "
-        "end of its 68 % interval), whose wander the ramp's estimate takes up");
   if (a.has_gmwm) gmwmCompare(&a.gmwm, a.oadev, a.fit.model_var, a.final_model_var);  // closed loop vs IEEE fits
   a.quality = assessQuality(a);
   if (unboundIntervalsIfBad(a.quality, &a.coefficients))
@@ -533,21 +488,25 @@ const FitResult& answerFit(const AxisAnalysis& a) {
   return a.fit;
 }
 
-std::array<bool, kNumTerms> answerWidened(const AxisAnalysis& a) {
-  std::array<bool, kNumTerms> w = answerFit(a).widened;  // the split reports its denoised fit's B, K, R as corrected
-  if (a.method == "wavelet_split") w[kQuantization] = w[kAngleRandomWalk] = false;
-  return w;
-}
-
-bool answerRampBounded(const AxisAnalysis& a) {
-  return answerFit(a).ramp_bounded_by_random_walk && a.coefficients[kRateRamp].supported;
-}
-
-std::array<bool, kNumTerms> answerAmbiguous(const AxisAnalysis& a) {
-  std::array<bool, kNumTerms> amb = answerFit(a).ambiguous;
-  if (a.method == "wavelet_split") amb[kQuantization] = amb[kAngleRandomWalk] = false;
-  if (a.method == "pulse_times") amb[kQuantization] = false;  // Q is the lattice's pulse weight / sqrt(12)
-  return amb;
+std::string tradeNote(const FitResult& f, const std::array<Coefficient, kNumTerms>& c) {
+  std::string pairs;
+  const int long_tau[3] = {kBiasInstability, kRateRandomWalk, kRateRamp};
+  for (int i = 0; i < 3; ++i)
+    for (int j = i + 1; j < 3; ++j) {
+      const int a = long_tau[i], b = long_tau[j];
+      const double r = f.correlation[static_cast<size_t>(a)][static_cast<size_t>(b)];
+      const bool weak = !c[static_cast<size_t>(a)].supported || !c[static_cast<size_t>(b)].supported;
+      const bool present = c[static_cast<size_t>(a)].value > 0 || c[static_cast<size_t>(b)].value > 0;
+      if (!(std::fabs(r) >= kTradeCorrelation) || !weak || !present) continue;
+      char buf[160];
+      std::snprintf(buf, sizeof buf, "%s%s and %s (correlation %+.2f)", pairs.empty() ? "" : ", ", noiseTermKey(a),
+                    noiseTermKey(b), r);
+      pairs += buf;
+    }
+  if (pairs.empty()) return "";
+  return "terms that trade over the longest taus: " + pairs +
+         "; the record tells their combination (the model curve) better than each, so a term reported as a bound "
+         "may hold what its partner lacks";
 }
 
 AxisAnalysis analyzeAxis(const std::string& axis, const std::vector<std::vector<double>>& segments, double tau0,

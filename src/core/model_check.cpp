@@ -230,9 +230,8 @@ Model fitModel(const DeviationCurve& curve, const Model& previous, const FitOpti
         full.bic = modelBic(full);
         if (full.bic <= c.bic + 2.0) c = full;  // keep the bounds unless they cost the fit
       }
-      // K and R left out: report them unsupported with a 1-sigma upper bound from the fit that had them.
-      // Into the answer (terms_corrected) too, with the bound as the upper end of its 68 % interval: before session
-      // 12 only `terms` got it, and the answer's K and R were all zeros (Kalibr then took 0 as K's bound).
+      // K and R left out: report them at 0 (the model drawn has none), unsupported, with the upper ends of the
+      // intervals of the fit that had them (Kalibr takes K's bound).
       for (int t : {kRateRandomWalk, kRateRamp}) {
         if (c.fit.terms[t].supported || !full.fit.ok) continue;
         const Coefficient& fc = full.fit.terms[t];
@@ -240,7 +239,6 @@ Model fitModel(const DeviationCurve& curve, const Model& previous, const FitOpti
         b.hi68 = b.sigma;
         b.hi95 = std::max(b.sigma, fc.hi95);
         c.fit.terms[t] = b;
-        c.fit.terms_corrected[t] = b;
       }
       if (!best.ok || c.bic < best.bic) best = c;
     }

@@ -13,7 +13,7 @@
 
 namespace gyro_allan {
 namespace {
-constexpr double kFlickerFactor = 0.4412712003053032;  // 2 ln2 / pi (0.44127134622499293 until session 22: off by 3e-7)
+constexpr double kFlickerFactor = 0.4412712003053032;  // 2 ln2 / pi
 }  // namespace
 
 namespace detail {
@@ -179,6 +179,16 @@ double modelVariance(const FitResult& fit, double tau, const std::vector<ExtraTe
   return s;
 }
 
+FitError fitErrorOf(const FitResult& fit) {
+  FitError e;
+  e.rms_log10 = fit.rms_log10;
+  e.chi2_dof = fit.chi2_dof;
+  e.n_rms = fit.n_rms;
+  e.worst_adev_ratio = fit.worst_adev_ratio;
+  if (fit.gls) e.chi2_p = fit.chi2_p;
+  return e;
+}
+
 FitError fitError(const DeviationCurve& curve, const std::vector<double>& model_var, const std::vector<bool>& used,
                   int n_params, double rms_min_edf) {
   FitError e;
@@ -193,7 +203,11 @@ FitError fitError(const DeviationCurve& curve, const std::vector<double>& model_
       chi2 += 0.5 * p.edf * r * r;
       ++n_used;
     }
-    if (p.edf >= rms_min_edf) {
+    if (i < used.size() && used[i] && p.edf >= kTightEdf) {
+      const double ratio = std::sqrt(p.var > m ? p.var / m : m / p.var);
+      e.worst_adev_ratio = std::max(e.worst_adev_ratio, ratio);
+    }
+    if (p.edf >= rms_min_edf && (i >= used.size() || used[i])) {
       const double l = 0.5 * std::log10(p.var / m);
       sum_log += l * l;
       ++e.n_rms;
@@ -212,7 +226,6 @@ FitResult fitNoiseModelEdf(const DeviationCurve& curve, const FitOptions& option
 FitResult fitNoiseModel(const DeviationCurve& curve, const FitOptions& options, const std::vector<ExtraTerm>& extra) {
   const bool gls = options.weighting == FitWeighting::Covariance && detail::glsApplies(curve);
   FitResult r = gls ? detail::fitNoiseModelGls(curve, options, extra) : fitNoiseModelEdf(curve, options, extra);
-  if (!gls) r.terms_corrected = r.terms;  // no selection correction without the covariance
   r.tau0 = curve.tau0;
   return r;
 }
@@ -415,6 +428,7 @@ double finalStatistics(const EdfSolver& s, const std::vector<double>& edf, int n
   r->chi2 = fe.chi2_dof * r->dof;
   r->rms_log10 = fe.rms_log10;
   r->n_rms = fe.n_rms;
+  r->worst_adev_ratio = fe.worst_adev_ratio;
   return std::max(1.0, r->chi2_dof);
 }
 

@@ -1,7 +1,6 @@
-// IEEE 952 fit by generalized least squares: the covariance of the overlapping AVAR estimates across tau
-// (avar_covariance.hpp) weights the fit, selects the terms by the chi-squared they buy, and gives the intervals.
+// IEEE 952 fit by generalized least squares: every term fitted at once under non-negativity, weighted by the covariance
+// of the overlapping AVAR estimates across tau (avar_covariance.hpp) at the fitted model itself, with unified intervals.
 #include <algorithm>
-#include <bitset>
 #include <cmath>
 #include <limits>
 #include <memory>
@@ -10,8 +9,7 @@
 #include <boost/math/distributions/chi_squared.hpp>
 
 #include "gyro_allan/avar_covariance.hpp"
-#include "gyro_allan/avar_skewness.hpp"
-#include "gyro_allan/selective.hpp"
+#include "gyro_allan/unified_interval.hpp"
 #include "noise_model_internal.hpp"
 
 namespace gyro_allan {
@@ -19,25 +17,9 @@ namespace {
 
 constexpr double kMisfitP = 0.01;        // below this chi-squared p-value the sigmas are inflated by sqrt(chi2/dof)
 
-/// What an IEEE term must save in chi-squared to enter the selection (FitOptions: the ramp dearer).
-double entryPenalty(int term, const FitOptions& options) {
-  return term == kRateRamp ? options.ramp_penalty : options.term_penalty;
-}
-
 /// Column t of the design at tau: an IEEE term's basis (B's at the record's tau0), else extra term t - kNumTerms's.
 double columnBasis(int t, double tau, double tau0, const std::vector<ExtraTerm>& extra) {
   return t < kNumTerms ? noiseTermBasis(t, tau, tau0) : extra[static_cast<size_t>(t - kNumTerms)].basis(tau);
-}
-
-/// Whether a dropped term `other` is estimated beside a dropped term `t` (since session 20): a dropped rate random walk
-/// beside a dropped ramp and the other way round. Fitted with the selected terms alone, a dropped K took up a dropped
-/// ramp's rise (its 68 % interval started above the truth in 62 % of tactical records with a ramp at 4 h, in 23 of
-/// 40 at 1 h with a ramp near detection), and a dropped R a dropped K's. Estimated together, neither takes up the
-/// other's signal, and the wider sd of the pair is in the interval. B is not added: beside a dropped B, K's interval
-/// collapsed on `bags/default.bag` (y: upper end 5.5 against a declared 41.25 deg/h/sqrt(h)). docs/calibration.md,
-/// "Session 20".
-bool jointEstimate(int t, int other) {
-  return (t == kRateRandomWalk && other == kRateRamp) || (t == kRateRamp && other == kRateRandomWalk);
 }
 
 /// Octave-spaced subset: a denser grid's neighbours share most of their data (correlation > 0.9) and make the
@@ -210,7 +192,7 @@ bool buildProblem(const DeviationCurve& curve, const FitOptions& options, const 
 }
 
 // The GLS fit of one curve, stage by stage (fitNoiseModelGls runs them in order). The members are the state the
-// stages share: the problem, the coefficients as they evolve, and the result being filled.
+// stages share: the problem, the coefficients, and the result being filled.
 struct GlsFit {
   const DeviationCurve& curve;
   const FitOptions& options;
@@ -218,47 +200,21 @@ struct GlsFit {
   FitResult r;
   GlsProblem P;
   int ncol = 0;
-  std::vector<int> all, extras, ieee_cols;  // column sets: every column, the extra terms', the IEEE terms'
-  Eigen::VectorXd c;                         // coefficient weights (AVAR units), per column
-  Eigen::VectorXd c_full;                    // ... of the full model (before term selection)
-  Eigen::MatrixXd cov_full;                  // the full model's covariance of the estimates
-  Eigen::VectorXd rival_c;                   // the closest non-nested rival's weights (selectTerms)
-  struct CloseRival {
-    double gap;
-    int terms;
-    size_t index;
-    Eigen::VectorXd weights;
-  };
-  std::vector<CloseRival> close_rivals;      // every close rival (isCloseRival; selectTerms), the closest first
-  std::vector<CloseRival> close_supersets;   // every larger set of terms within kSupersetGap on AIC (selectTerms)
-  std::vector<int> pos;                      // the selected columns
-  struct TermInference {
-    bool corrected_out = false;
-    double sd0 = 0;
-    SelectionEvent event;
-    SelectiveEstimate est;
-  };
-  std::vector<TermInference> inf;
+  std::vector<int> all, ieee_cols;  // column sets: every column, the IEEE terms'
+  Eigen::VectorXd c;                // coefficient weights (AVAR units), per column
+  std::vector<int> pos;             // the columns with a positive weight
+  std::vector<double> sd0;          // per column: sd of its estimate at the fit (misfit inflation included)
 
   GlsFit(const DeviationCurve& curve_, const FitOptions& options_, const std::vector<ExtraTerm>& extra_)
       : curve(curve_), options(options_), extra(extra_) {}
-
-  double penalty(int col) const { return entryPenalty(P.term[static_cast<size_t>(col)], options); }
-
-  // The column of IEEE term t (-1 when the problem has none).
-  int columnOf(int t) const {
-    for (int col : ieee_cols)
-      if (P.term[static_cast<size_t>(col)] == t) return col;
-    return -1;
-  }
 
   // The result's fixed fields and per-point arrays.
   void initResult() {
     const size_t np = curve.points.size();
     r.gls = true;
     r.uncertainty =
-        "GLS: inverse information with the analytic covariance of the AVAR estimates at the fitted model; intervals "
-        "and values conditional on the term selection (selective inference)";
+        "GLS: inverse information with the analytic covariance of the AVAR estimates at the fitted model; unified "
+        "(Feldman-Cousins) intervals on each term's AVAR weight";
     r.tau.resize(np);
     for (size_t i = 0; i < np; ++i) r.tau[i] = curve.points[i].tau;
     r.model_var.assign(np, 0.0);
@@ -266,221 +222,47 @@ struct GlsFit {
     r.gls_used.assign(np, false);
     r.extra.assign(extra.size(), Coefficient{});
     r.extra_c.assign(extra.size(), 0.0);
+    for (auto& row : r.correlation) row.fill(std::numeric_limits<double>::quiet_NaN());
   }
 
-  // Column sets of the problem.
   void columns() {
     ncol = static_cast<int>(P.term.size());
     all.resize(static_cast<size_t>(ncol));
     for (int k = 0; k < ncol; ++k) {
       all[static_cast<size_t>(k)] = k;
-      if (P.term[static_cast<size_t>(k)] >= kNumTerms) extras.push_back(k);
-      else ieee_cols.push_back(k);
+      if (P.term[static_cast<size_t>(k)] < kNumTerms) ieee_cols.push_back(k);
     }
   }
 
-  // The full model: each estimate's variance from its EDF (relative least squares), then the model's covariance,
-  // iterated. False when the EDF-weighted start is not positive definite.
-  bool fitFullModel() {
+  // Every term at once, non-negative, weighted by the covariance of the estimates at the current fit: from each
+  // estimate's variance by its EDF, refitted at the covariance of the last fit until the model stops moving (the
+  // fixed point is the quasi-likelihood estimate, whose estimating equation is unbiased). False when the EDF-weighted
+  // start is not positive definite.
+  bool fit() {
     {
-      Whitened w = whiten(P, P.fallback_var.asDiagonal());
+      const Whitened w = whiten(P, P.fallback_var.asDiagonal());
       if (!w.ok) return false;
       solveNnls(w, all, &c);
     }
-    for (int it = 0; it < 4; ++it) {
+    constexpr int kMaxIterations = 30;
+    constexpr double kConverged = 1e-6;  // largest relative change of the model AVAR at a fitted point
+    for (int it = 0; it < kMaxIterations; ++it) {
       const Whitened w = whiten(P, P.covariance(c));
       if (!w.ok) break;
       Eigen::VectorXd next;
       solveNnls(w, all, &next);
+      const Eigen::VectorXd before = P.F * c, after = P.F * next;
+      double change = 0;
+      for (int i = 0; i < before.size(); ++i)
+        change = std::max(change, std::fabs(after[i] - before[i]) / std::max(after[i], 1e-300));
       c = next;
+      if (change < kConverged) break;
     }
-    // The covariance stays the full model's from here on: a term dropped for want of evidence may still be there
-    // below detection, and the scatter it causes must stay in the weights (with the reduced model's covariance, a
-    // record with weak B and K gave chi2/dof ~ 20 for its N-only answer).
-    cov_full = P.covariance(c);
-    c_full = c;
     return true;
   }
 
-  // Term selection at the full model's covariance: every subset of the IEEE terms (extra terms always in), scored
-  // by chi-squared plus a penalty per selected term.
-  void selectTerms() {
-    const Whitened w = whiten(P, cov_full);
-    if (!w.ok) return;
-    double best_score = std::numeric_limits<double>::infinity();
-    Eigen::VectorXd best_c = c;
-    const int ne = static_cast<int>(ieee_cols.size());
-    struct Scored {
-      int terms;           // IEEE terms with a positive weight, as 1 << term
-      double score, aic;   // the selection's score (chi-squared + penalties) and AIC's (chi-squared + 2 per term)
-    };
-    std::vector<Scored> scored;
-    std::vector<Eigen::VectorXd> fits;           // their weights
-    for (int mask = 0; mask < (1 << ne); ++mask) {
-      std::vector<int> cols = extras;
-      for (int b = 0; b < ne; ++b)
-        if (mask & (1 << b)) cols.push_back(ieee_cols[static_cast<size_t>(b)]);
-      if (cols.empty()) continue;
-      Eigen::VectorXd cs;
-      double score = solveNnls(w, cols, &cs);
-      fits.push_back(cs);
-      int terms = 0;
-      double aic = score;  // the rival is judged on AIC's scale (2 per term; kRivalGap)
-      for (int col : ieee_cols)
-        if (cs[col] > 0) score += penalty(col), aic += 2.0, terms |= 1 << P.term[static_cast<size_t>(col)];
-      scored.push_back({terms, score, aic});
-      if (score < best_score - 1e-9) {
-        best_score = score;
-        best_c = cs;
-      }
-    }
-    c = best_c;
-    // Rivals that tell the record with other terms: neither a subset nor a superset of the selection (nested
-    // alternatives are what each term's selective interval accounts for), close by isCloseRival (within kRivalGap on
-    // the score or on AIC, or within an entry penalty in chi-squared; noise_model.hpp). The closest one is reported.
-    int sel = 0;
-    double sel_aic = std::numeric_limits<double>::infinity();
-    for (int col : ieee_cols)
-      if (c[col] > 0) sel |= 1 << P.term[static_cast<size_t>(col)];
-    for (const Scored& x : scored)
-      if (x.terms == sel) sel_aic = std::min(sel_aic, x.aic);
-    const int n_bit = 1 << kAngleRandomWalk;
-    for (size_t i = 0; i < scored.size(); ++i) {
-      const int terms = scored[i].terms;
-      const double score_gap = scored[i].score - best_score, aic_gap = scored[i].aic - sel_aic;
-      const double gap = std::min(score_gap, aic_gap);
-      if (terms != sel && (terms & sel) == sel) {  // a larger set of terms: the selection and some it left out
-        const bool seen = std::any_of(close_supersets.begin(), close_supersets.end(),
-                                      [&](const CloseRival& x) { return x.terms == terms; });
-        if (aic_gap < kSupersetGap && !seen) close_supersets.push_back({aic_gap, terms, i, fits[i]});
-      }
-      if ((terms & sel) == terms || (terms & sel) == sel) continue;
-      // A set without the white-noise floor N is no rival to one with it: every gyro has N, and taking N away would
-      // leave an answer with no N (a bad verdict, unbounded intervals). None of the session-12 study records had one
-      // within the gap.
-      if ((sel & n_bit) && !(terms & n_bit)) continue;
-      // (A subset with an IEEE column that came out at 0 has the terms of a smaller one: counted once.)
-      const bool seen =
-          std::any_of(close_rivals.begin(), close_rivals.end(), [&](const CloseRival& x) { return x.terms == terms; });
-      if (isCloseRival(sel, terms, score_gap, aic_gap, options) && !seen)
-        close_rivals.push_back({gap, terms, i, Eigen::VectorXd()});
-      if (gap < r.rival_gap) {
-        r.rival_gap = gap, r.rival_terms = terms, rival_c = fits[i];
-        r.rival_score_gap = score_gap, r.rival_aic_gap = aic_gap;
-      }
-    }
-    // (stable: on a tie the first in subset order comes first, as for rival_terms above)
-    std::stable_sort(close_rivals.begin(), close_rivals.end(),
-                     [](const auto& a, const auto& b) { return a.gap < b.gap; });
-    for (auto& cr : close_rivals) {
-      r.close_rival_terms.push_back(cr.terms);
-      r.close_rival_gaps.push_back(cr.gap);
-      cr.weights = fits[cr.index];
-    }
-    std::stable_sort(close_supersets.begin(), close_supersets.end(),
-                     [](const auto& a, const auto& b) { return a.gap < b.gap; });
-    for (const auto& cs : close_supersets) r.close_superset_terms.push_back(cs.terms);
-  }
-
-  // Terms a close rival (isCloseRival) tells otherwise, for every such rival (FitResult::ambiguous):
-  // a term the search selected and the rival does without is not supported (its value 0, its interval from 0 to its
-  // upper end), and a rival's term the search did not select gets at least the rival's plain upper ends (its free
-  // least-squares value + 1 and 1.96 sd at the full model's covariance). The selective intervals (inferAll) condition on which terms were kept,
-  // not on which non-nested set of terms won: where a rate random walk told the record about as well as bias
-  // instability plus a ramp, K was reported at 3-10x its truth with an interval that excluded it.
-  void ambiguity(const Whitened& w) {
-    for (int col = 0; col < ncol && rival_c.size() == ncol; ++col)
-      if (rival_c[col] > 0 && P.term[static_cast<size_t>(col)] < kNumTerms)
-        r.rival_values[static_cast<size_t>(P.term[static_cast<size_t>(col)])] = std::sqrt(rival_c[col]);
-    for (const CloseRival& cr : close_rivals) {
-      const Eigen::VectorXd& rc = cr.weights;
-      std::vector<int> rcols;  // this rival's columns (extra terms included)
-      for (int col = 0; col < ncol; ++col)
-        if (rc[col] > 0) rcols.push_back(col);
-      Eigen::VectorXd est;
-      Eigen::MatrixXd cov;
-      if (!rcols.empty()) solveFree(w, rcols, &est, &cov);
-      for (int col : ieee_cols) {
-        const int t = P.term[static_cast<size_t>(col)];
-        Coefficient& cc = r.terms_corrected[static_cast<size_t>(t)];
-        const bool in_rival = rc[col] > 0, selected = c[col] > 0;  // selected: by the subset search
-        if (selected && !in_rival) {  // (also when its selection-corrected value already dropped it)
-          cc.supported = false;
-          cc.value = 0.0;
-          cc.lo68 = cc.lo95 = 0.0;
-          cc.sigma = cc.hi68;
-          r.ambiguous[static_cast<size_t>(t)] = true;
-        } else if (!selected && in_rival && !rcols.empty()) {
-          const auto k = static_cast<int>(std::find(rcols.begin(), rcols.end(), col) - rcols.begin());
-          const double x = std::max(0.0, est[k]), sd = std::sqrt(std::max(0.0, cov(k, k) * r.uncertainty_inflation));
-          cc.hi68 = std::max(cc.hi68, std::sqrt(x + sd));
-          cc.hi95 = std::max(cc.hi95, std::sqrt(x + 1.96 * sd));
-          cc.sigma = cc.hi68;
-          r.ambiguous[static_cast<size_t>(t)] = true;
-        }
-      }
-    }
-  }
-
-  // A selected rate ramp beside a dropped rate random walk (FitResult::ramp_bounded_by_random_walk): its 95 % interval in
-  // terms_corrected reaches the ramp's plain interval (least-squares value -+ 1.96 sd) with the covariance at K's 68 %
-  // upper end instead of the full model's K. A ramp's Allan estimates scatter through the cross term 4 mu mu' Cov(d, d')
-  // (avar_covariance.hpp), which a rate random walk's wander makes large, so the ramp's sd depends steeply on K; the full
-  // model's K is 0 in most such records (K and R trade over the longest taus), and the ramp's 95 % interval held the
-  // truth in 69 of 100 records of a 2 h gyro with K = 3 deg/h/sqrt(h) and R = 20 deg/h^2, R supported in 85 of them
-  // (docs/calibration.md, "Session 21"). A K the search selected (c > 0) is in the selected columns already, so R's sd
-  // has it free and at the full model's value, also when its correction or a rival reports it dropped.
-  void boundRampByRandomWalk() {
-    const int r_col = columnOf(kRateRamp), k_col = columnOf(kRateRandomWalk);
-    Coefficient& cc = r.terms_corrected[kRateRamp];
-    if (!options.intervals || r_col < 0 || k_col < 0 || !(c[r_col] > 0) || c[k_col] > 0 || !cc.supported) return;
-    Eigen::VectorXd cm = c_full;
-    cm[k_col] = std::max(cm[k_col], inf[static_cast<size_t>(k_col)].est.hi68);
-    const Whitened wk = whiten(P, P.covariance(cm));
-    if (!wk.ok) return;
-    Eigen::VectorXd est;
-    Eigen::MatrixXd cov;
-    solveFree(wk, pos, &est, &cov);
-    const int k = static_cast<int>(std::find(pos.begin(), pos.end(), r_col) - pos.begin());
-    const double x = c[r_col], sd = std::sqrt(std::max(0.0, cov(k, k) * r.uncertainty_inflation));
-    const double lo95 = cc.lo95, hi95 = cc.hi95;
-    cc.lo95 = std::min(cc.lo95, std::sqrt(std::max(0.0, x - 1.96 * sd)));
-    cc.hi95 = std::max(cc.hi95, std::sqrt(x + 1.96 * sd));
-    r.ramp_bounded_by_random_walk = cc.lo95 != lo95 || cc.hi95 != hi95;
-  }
-
-  // Larger sets of terms within kSupersetGap (noise_model.hpp): a selected B's interval in terms_corrected reaches the
-  // larger set's plain interval of B, on the side of that set's value. After ambiguity(): a B a close rival does
-  // without is a bound already (unsupported) and keeps the rival rule's interval. Only B: the term the study found
-  // absorbing a left-out rate random walk; N's interval comes from the selected columns on purpose (Q's column is
-  // nearly collinear with N's; inferAll), and widening a selected K or R was not studied.
-  void widenBySupersets(const Whitened& w) {
-    Coefficient& cc = r.terms_corrected[kBiasInstability];
-    const int b_col = columnOf(kBiasInstability);
-    if (!options.intervals || b_col < 0 || !(c[b_col] > 0) || !cc.supported) return;
-    for (const CloseRival& cs : close_supersets) {
-      std::vector<int> cols;
-      for (int col = 0; col < ncol; ++col)
-        if (cs.weights[col] > 0) cols.push_back(col);
-      Eigen::VectorXd est;
-      Eigen::MatrixXd cov;
-      solveFree(w, cols, &est, &cov);
-      const int k = static_cast<int>(std::find(cols.begin(), cols.end(), b_col) - cols.begin());
-      const double x = est[k], sd = std::sqrt(std::max(0.0, cov(k, k) * r.uncertainty_inflation));
-      const double lo68 = cc.lo68, lo95 = cc.lo95, hi68 = cc.hi68, hi95 = cc.hi95;
-      if (x < c[b_col]) {
-        cc.lo68 = std::min(cc.lo68, std::sqrt(std::max(0.0, x - sd)));
-        cc.lo95 = std::min(cc.lo95, std::sqrt(std::max(0.0, x - 1.96 * sd)));
-      } else {
-        cc.hi68 = std::max(cc.hi68, std::sqrt(std::max(0.0, x + sd)));
-        cc.hi95 = std::max(cc.hi95, std::sqrt(std::max(0.0, x + 1.96 * sd)));
-      }
-      if (cc.lo68 != lo68 || cc.lo95 != lo95 || cc.hi68 != hi68 || cc.hi95 != hi95) r.widened[kBiasInstability] = true;
-    }
-  }
-
-  // Final statistics at the same covariance, and the evidence: the chi-squared change when each IEEE term leaves or
-  // joins the final set.
+  // Chi-squared at the fitted model's own covariance, its p-value, the misfit inflation, and the evidence: how much
+  // the chi-squared rises when each term with a positive weight is held at 0 (0 for the others).
   void statistics(const Whitened& w) {
     const int n = static_cast<int>(P.idx.size());
     for (int k = 0; k < ncol; ++k)
@@ -492,287 +274,112 @@ struct GlsFit {
     r.chi2_p = chi2UpperTail(chi2, r.dof);
     r.uncertainty_inflation = (r.chi2_p < kMisfitP && r.chi2_dof > 1) ? r.chi2_dof : 1.0;
     for (int col : ieee_cols) {
-      const int t = P.term[static_cast<size_t>(col)];
+      if (!(c[col] > 0)) continue;
       std::vector<int> cols;
-      const bool in = c[col] > 0;
-      for (int k : pos)
+      for (int k : all)
         if (k != col) cols.push_back(k);
-      if (!in) cols.push_back(col);
       Eigen::VectorXd tmp;
-      const double other = solveNnls(w, cols, &tmp);
-      r.evidence[static_cast<size_t>(t)] = in ? other - chi2 : chi2 - other;
+      r.evidence[static_cast<size_t>(P.term[static_cast<size_t>(col)])] = solveNnls(w, cols, &tmp) - chi2;
     }
   }
 
-  // Intervals and values by selective inference (selective.hpp). Each term's estimate x (its least-squares value
-  // when selected, but a selected K's unconstrained value in a larger set (inferAll); when not, its unconstrained
-  // value with the term added) is treated as normal with a variance
-  // that grows with the term itself (the AVAR scatter does: a fixed sigma made the upper side too short), and the
-  // fact that the subset search kept it (x above the threshold where its chi-squared saving equals the penalty) or
-  // dropped it (below) is conditioned on. The intervals then hold the truth at their stated rate among the records
-  // where the same selection happened, and a selected term's value is the conditional median-unbiased estimate:
-  // a weak term is selected only when it came out high, and its plain least-squares value was biased up (+50 %
-  // for a rate random walk near the detection limit). A selected term whose corrected value is 0 is dropped.
-  // The columns whose uncertainty counts: for a selected term, the selected terms and those the full model had (a
-  // term below the selection threshold still trades with its neighbours; a selected K also a dropped B, inferAll);
-  // for a dropped term, the selected terms, itself and a dropped partner (jointEstimate; below).
-
-  // sd of the estimate of column `col` (at position pos_in_cols of cols) when its true weight is x.
-  double sdAt(const std::vector<int>& cols, size_t pos_in_cols, int col, double x) const {
-    Eigen::VectorXd cm = c_full;
-    cm[col] = std::max(0.0, x);
+  // sd of the free estimate of column `col` (at position k of cols) when its true weight is mu, the others at the fit.
+  double sdAt(const std::vector<int>& cols, int k, int col, double mu) const {
+    Eigen::VectorXd cm = c;
+    cm[col] = std::max(0.0, mu);
     const Whitened wx = whiten(P, P.covariance(cm));
     if (!wx.ok) return std::numeric_limits<double>::quiet_NaN();
     Eigen::VectorXd est;
     Eigen::MatrixXd cov;
     solveFree(wx, cols, &est, &cov);
-    const int k = static_cast<int>(pos_in_cols);
     return std::sqrt(std::max(0.0, cov(k, k) * r.uncertainty_inflation));
   }
 
-  // Third cumulant of the estimate at position k of cols (its GLS weights at the full model's covariance, which made
-  // it: a . y is solveFree's value, up to the ridge whiten() adds to a covariance that is not positive definite) at
-  // the full model's Q, N and B and a rate random walk of mu, in the spectral form of avar_skewness.hpp, with its
-  // variance a' C(mu) a without the rate ramp's share through the three mu of the variance model. The skew the pivot
-  // uses is this over the variance model's variance (VarianceModel::skewAt), which also holds the ramp's share and
-  // the misfit inflation, both taken as unskewed; near mu = 0, where a' C(0) a exceeds the variance model (the
-  // weights were made at the full model), the skew used is the larger.
-  ThirdCumulantModel thirdCumulant(const std::vector<int>& cols, size_t k, const double mu[3]) const {
-    ThirdCumulantModel tc;
-    const Whitened w = whiten(P, cov_full);
-    if (!w.ok) return tc;
-    Eigen::VectorXd est;
-    Eigen::MatrixXd cov;  // (F' C^-1 F)^-1 over cols
-    solveFree(w, cols, &est, &cov);
-    const int n = static_cast<int>(P.F.rows()), q = static_cast<int>(cols.size());
-    Eigen::MatrixXd fc(n, q);
-    for (int j = 0; j < q; ++j) fc.col(j) = P.F.col(cols[static_cast<size_t>(j)]);
-    const Eigen::VectorXd a = cov_full.ldlt().solve(fc * cov.col(static_cast<int>(k)));  // x = a . y
-    std::array<double, 3> fixed{{0, 0, 0}};
-    for (int col : ieee_cols) {
-      const int t = P.term[static_cast<size_t>(col)];
-      if (t < kRateRandomWalk && c_full[col] > 0) fixed[static_cast<size_t>(t)] = c_full[col];
-    }
-    const std::vector<double> av(a.data(), a.data() + a.size());
-    const AvarCombinationSpectrum sp = avarCombinationSpectrum(P.basis->m, P.basis->n_terms, av, P.basis->tau0, fixed);
-    double var[3];
-    for (int i = 0; i < 3; ++i) {
-      const std::array<double, 5> s{{fixed[0], fixed[1], fixed[2], std::max(0.0, mu[i]), 0.0}};
-      var[i] = a.dot(avarCovariance(*P.basis, s) * a);
-    }
-    const VarianceModel k2 = VarianceModel::through(mu, var);
-    tc.k0 = k2.v0;
-    tc.k1 = k2.v1;
-    tc.k2 = k2.v2;
-    tc.i2 = sp.i2;
-    tc.i3 = sp.i3;
-    return tc;
-  }
-
-  // One column's selection event, variance model and selective estimate.
-  void infer(int col, const std::vector<int>& cols, size_t k, double x, double sd0) {
-    TermInference ti;
-    ti.sd0 = sd0;
-    const int t = P.term[static_cast<size_t>(col)];
-    const bool selected = c[col] > 0;
-    ti.event.selected = selected;
-    if (t >= kNumTerms) {  // extra terms are always in: no selection to condition on
-      ti.event.threshold = selected ? -std::numeric_limits<double>::infinity() : std::numeric_limits<double>::infinity();
-    } else {
-      // The subset search keeps a term when the chi-squared it saves, about (x / sd)^2, exceeds its penalty.
-      ti.event.threshold = std::sqrt(penalty(col)) * sd0;
-      if (selected) ti.event.threshold = std::min(ti.event.threshold, x);
-    }
-    if (!options.intervals) {  // values only (FitOptions::intervals): sd0 still gives a selected term its sigma
-      constexpr double nan = std::numeric_limits<double>::quiet_NaN();
-      ti.est.median = ti.est.lo68 = ti.est.hi68 = ti.est.lo95 = ti.est.hi95 = nan;
-      inf[static_cast<size_t>(col)] = ti;
-      return;
-    }
-    const double m1 = std::max({x, sd0, 1e-300});
-    const double mu[3] = {0.0, m1, m1 + 4.0 * std::max(sd0, 0.25 * m1)};
-    double var[3];
-    for (int i = 0; i < 3; ++i) {
-      const double sd = sdAt(cols, k, col, mu[i]);
-      var[i] = std::isfinite(sd) ? sd * sd : sd0 * sd0;
-    }
-    VarianceModel vm = VarianceModel::through(mu, var);
-    if (!selected && t < kNumTerms) {
-      // Dropped. The threshold the search applied was sqrt(penalty) times the sd at the full model's covariance, and
-      // that covariance holds the full model's value of this very term, which rises and falls with x: a low x came
-      // with a low threshold and a high one with a high threshold (seeds 1-40, the wavelet split's B: (T - truth) / sd
-      // from -0.3 for the lowest x to +2.3 for the highest). Conditioning on the observed threshold then treats a
-      // record's own scatter as part of the event. For B the event is fixed where the term would enter: x =
-      // sqrt(penalty) sd(x), the fixed point of the variance model (the split's dropped B at 68 %: 0.81 -> 0.69 on
-      // seeds 1-20, 0.85 -> 0.71 on 2001-2020).
-      // Only for B. K's variance is steep in K (penalty * v2 ~ 0.45, 30 min records), its fixed point lay a median 7x
-      // beyond the observed threshold and at infinity in a quarter of the records, and conditioning on it made the
-      // consumer class's K under-cover (0.35-0.70 of 20 per seed set against 0.60-0.75) and the 30 min issue class's
-      // over-cover (0.93 of 100); R moved within its binomial spread. Nor with extra (model-check) terms in the fit:
-      // their scatter is not in the covariance (beside a Tc = 10 s Gauss-Markov term K's fixed point was 40x the
-      // observed threshold; test_model_check GaussMarkovFound). docs/calibration.md, "Sessions 9-10".
-      if (t == kBiasInstability && extras.empty()) ti.event.threshold = vm.entryThreshold(penalty(col));
-      // The variance grows with the hypothesised value up to the threshold and is held there. Grown without limit
-      // (like a rate random walk's long-tau scatter), "it came out below the threshold" stays likely for any large
-      // value and the conditional bound had no finite end; held at the estimate's variance it missed a near-detection
-      // K (biased low where B and R trade with it) 2 times in 6 at 95 % (test_noise_model's MEMS case); held at the
-      // threshold's it covered 100 % at 68 % (docs/calibration.md).
-      vm.cap_mu = std::max(0.0, ti.event.threshold);
-    }
-    // A selected rate random walk's estimate is read from the longest taus, whose Allan points are right-skewed (its
-    // skew 0.4-1.7 in the simulations of docs/calibration.md, "Session 26"), and a normal model's winner's-curse
-    // correction left the kept values high (kvis, seeds 31521-31720: +11.3 % median with a normal model, +5.4 % with
-    // the skew in). Not with extra terms: their share of the points is not in the spectral form.
-    if (selected && t == kRateRandomWalk && extras.empty()) vm.kappa3 = thirdCumulant(cols, k, mu);
-    ti.est = selectiveEstimate(x, vm, ti.event);
-    if (selected && t < kNumTerms && !(ti.est.median > 0)) {
-      // Selected, but its corrected value is 0 (it only just passed): dropped. Its bound is then the plain one-sided
-      // one (the conditional set is empty when the estimate sits on the threshold).
-      ti.corrected_out = true;
-      ti.est = selectiveEstimate(x, vm, SelectionEvent{false, std::numeric_limits<double>::infinity()});
-    }
-    inf[static_cast<size_t>(col)] = ti;
-  }
-
-  // Every column's inference: the selected ones from one solve, each dropped one from its own. N (always selected,
-  // far above its threshold) takes its variance from the selected columns only: its value is the selected set's
-  // least-squares value, and the quantization column, nearly collinear with N's at short tau, held N's interval
-  // wider than its scatter when Q is 0 and dropped (rms of (N - truth) / sigma 0.67-0.93 in the joint-fit classes,
-  // 1.0-1.1 this way; coverage_study seeds 1-20). B, K and R keep the full model's columns: they are near their
-  // thresholds, and the selected set's variance there let K through in 6 of 100 records (session 6).
-  // A selected K's estimate comes from those columns too, not from the selected set alone (since session 23): where
-  // a term the record holds was dropped (B below its entry), the selected set's K took up that term's
-  // share of the long-tau points, and the selection then kept the records where K came out high. Noise-free, N 0.15
-  // deg/sqrt(h), B 1 deg/h (dropped), K 20 deg/h/sqrt(h), 2 h at 100 Hz: K +9.7 % from the selected set, -0.3 % this
-  // way (test_noise_model SelectedRandomWalkIsNotRaisedByADroppedFlicker). On records (kr_big: N 0.15, B 1, K 6,
-  // R 40): the supported K's median bias +68 % -> +15 % (seeds 29101-29300) and +52 % -> +42 % (30101-30300).
-  // That estimate is unconstrained: one at or below K's threshold is dropped by its correction (infer). B and R keep
-  // the selected set's values (session 13 took every selected term's from the larger set at once: B improved and K's
-  // detection fell; docs/calibration.md, "Session 23").
-  // A selected K also has a dropped B's column free where the full model clipped B to 0 (since session 25): the
-  // full model's K had taken up B's floor there, so B was not among its positive columns, and K's estimate without
-  // B's column kept that floor (kr_big, seeds 30861-31260: B at 0 in the full model in 7 of the 15 records with a
-  // supported K, whose modelled sd at the truth was 1.1e-13 against 7-9e-13 in the class's other records;
-  // docs/calibration.md, "Session 25"). K's sigma (its sd0) comes from the same columns.
-  void inferAll(const Whitened& w) {
-    inf.assign(static_cast<size_t>(ncol), TermInference{});
-    std::vector<int> ucols = pos;
-    for (int col : ieee_cols)
-      if (!(c[col] > 0) && c_full[col] > 0) ucols.push_back(col);
-    // A dropped B is in ucols exactly when the full model holds it; a selected K adds it where it does not.
-    const int b_col = columnOf(kBiasInstability), k_col = columnOf(kRateRandomWalk);
-    const bool own_k = b_col >= 0 && k_col >= 0 && c[k_col] > 0 && !(c[b_col] > 0) && !(c_full[b_col] > 0);
-    std::vector<int> kcols = ucols;
-    if (own_k) kcols.push_back(b_col);
-    if (!pos.empty()) {
-      Eigen::VectorXd est, est_sel, est_k;
-      Eigen::MatrixXd cov, cov_sel, cov_k;
-      solveFree(w, ucols, &est, &cov);
-      solveFree(w, pos, &est_sel, &cov_sel);
-      if (own_k) solveFree(w, kcols, &est_k, &cov_k);
-      for (size_t k = 0; k < pos.size(); ++k) {
-        const int t = P.term[static_cast<size_t>(pos[k])];
-        const bool arw = t == kAngleRandomWalk, rrw = t == kRateRandomWalk;
-        const Eigen::MatrixXd& cv = arw ? cov_sel : (rrw && own_k ? cov_k : cov);
-        const double x = rrw ? (own_k ? est_k : est)[static_cast<int>(k)] : c[pos[k]];
-        infer(pos[k], arw ? pos : (rrw && own_k ? kcols : ucols), k, x,
-              std::sqrt(std::max(0.0, cv(static_cast<int>(k), static_cast<int>(k)) * r.uncertainty_inflation)));
-      }
-    }
-    // A dropped term's estimate is its value with the term added to the selected set: the chi-squared it would save
-    // there is what the subset search compared with its penalty, so this is the estimate the truncation (x < T)
-    // describes. A dropped K or R is estimated with the other one free too when both are dropped (jointEstimate);
-    // the variance model then has both columns, so the interval carries the trade, and the truncation is only
-    // approximately the search's event (it scored K with R out), at a threshold from the pair's sd. (Session 5
-    // added every full-model column, the selected terms' trading partners included: K's estimate came out at
-    // 0.05-0.5 of the truth in mean on 1 h records, and its 68 % coverage was 0.84.)
+  // Each term's value, sd and intervals. The estimate x of a term with a positive weight is its weight (the free
+  // least-squares value over the positive columns, which the non-negative fit is); of a term at 0, its free value
+  // with it added to those columns (<= 0 up to rounding: the fit would otherwise have taken it). x is treated as
+  // normal with a variance that grows with the true value (the AVAR scatter does), modelled through three values,
+  // and its unified interval is taken on [0, inf): never empty, an upper bound where the term is below its noise,
+  // two-sided above, and it holds the reported weight. A term is supported when its 95 % interval excludes 0; that
+  // flag never changes the value, so the reported coefficients are the model curve.
+  void coefficients(const Whitened& w) {
+    sd0.assign(static_cast<size_t>(ncol), 0.0);
+    constexpr double kZ95 = 1.959963984540054;
     for (int col = 0; col < ncol; ++col) {
-      if (c[col] > 0) continue;
       std::vector<int> cols = pos;
-      if (std::find(cols.begin(), cols.end(), col) == cols.end()) cols.push_back(col);
-      const size_t k = static_cast<size_t>(std::find(cols.begin(), cols.end(), col) - cols.begin());
-      const int t = P.term[static_cast<size_t>(col)];
-      for (int other : ieee_cols)
-        if (other != col && !(c[other] > 0) && jointEstimate(t, P.term[static_cast<size_t>(other)]))
-          cols.push_back(other);
+      if (!(c[col] > 0)) cols.push_back(col);
+      const int k = static_cast<int>(std::find(cols.begin(), cols.end(), col) - cols.begin());
       Eigen::VectorXd est;
       Eigen::MatrixXd cov;
       solveFree(w, cols, &est, &cov);
-      infer(col, cols, k, est[static_cast<int>(k)],
-            std::sqrt(std::max(0.0, cov(static_cast<int>(k), static_cast<int>(k)) * r.uncertainty_inflation)));
-    }
-  }
-
-  // `terms`: the least-squares values behind the model curve (the model check works with these); `terms_corrected`:
-  // the answer, with the selection-corrected values and the barely selected terms dropped. Both carry the same
-  // intervals, until ambiguity(), widenBySupersets() and boundRampByRandomWalk() change some of terms_corrected's.
-  void coefficients() {
-    for (int col = 0; col < ncol; ++col) {
-      const TermInference& ti = inf[static_cast<size_t>(col)];
-      Coefficient co;
-      co.supported = c[col] > 0;
-      co.value = co.supported ? std::sqrt(c[col]) : 0.0;
-      co.hi68 = std::sqrt(ti.est.hi68);
-      co.hi95 = std::sqrt(ti.est.hi95);
-      co.lo68 = std::sqrt(ti.est.lo68);  // a dropped term's unified interval may exclude 0 (selective.hpp)
-      co.lo95 = std::sqrt(ti.est.lo95);
-      if (co.supported) {
-        co.sigma = ti.sd0 / (2.0 * co.value);  // delta method at the least-squares value (the model check's gates)
-      } else {
-        co.sigma = co.hi68;  // the upper end of its 68 % interval
+      const double x = c[col] > 0 ? c[col] : std::min(0.0, est[k]);
+      const double sd = std::sqrt(std::max(0.0, cov(k, k) * r.uncertainty_inflation));
+      sd0[static_cast<size_t>(col)] = sd;
+      double lo68, hi68, lo95, hi95;
+      if (options.intervals) {
+        const double m1 = std::max({x, sd, 1e-300});
+        const double mu[3] = {0.0, m1, m1 + 4.0 * std::max(sd, 0.25 * m1)};
+        double var[3];
+        for (int i = 0; i < 3; ++i) {
+          const double s = sdAt(cols, k, col, mu[i]);
+          var[i] = std::isfinite(s) && s > 0 ? s * s : sd * sd;
+        }
+        const VarianceModel vm = VarianceModel::through(mu, var);
+        unifiedInterval(x, vm, 0.6826894921370859, &lo68, &hi68);
+        unifiedInterval(x, vm, 0.95, &lo95, &hi95);
+      } else {  // values only (FitOptions::intervals)
+        lo68 = hi68 = lo95 = hi95 = std::numeric_limits<double>::quiet_NaN();
       }
+      Coefficient co;
+      co.value = std::sqrt(std::max(0.0, c[col]));
+      co.lo68 = std::sqrt(lo68);
+      co.hi68 = std::sqrt(hi68);
+      co.lo95 = std::sqrt(lo95);
+      co.hi95 = std::sqrt(hi95);
+      co.supported = options.intervals ? lo95 > 0 : c[col] > kZ95 * sd;
+      co.sigma = co.supported ? sd / (2.0 * co.value) : co.hi68;  // delta method; a bound's: its 68 % upper end
       const int t = P.term[static_cast<size_t>(col)];
       if (t < kNumTerms) {
         r.terms[static_cast<size_t>(t)] = co;
-        Coefficient& cc = r.terms_corrected[static_cast<size_t>(t)];
-        cc = co;
-        if (co.supported && ti.corrected_out) {
-          r.dropped_by_correction[static_cast<size_t>(t)] = true;
-          cc.supported = false;
-          cc.value = 0.0;
-          cc.sigma = cc.hi68;
-        } else if (co.supported) {
-          cc.value = std::sqrt(ti.est.median);
-        }
       } else {
         r.extra[static_cast<size_t>(t - kNumTerms)] = co;
-        if (co.supported) r.extra_c[static_cast<size_t>(t - kNumTerms)] = c[col];
+        r.extra_c[static_cast<size_t>(t - kNumTerms)] = std::max(0.0, c[col]);
       }
     }
   }
 
-  // The model curve at every point and its fit error.
+  // The correlation of the IEEE terms' free estimates at the fit (every enabled term free): how B, K and R trade.
+  void correlation(const Whitened& w) {
+    Eigen::VectorXd est;
+    Eigen::MatrixXd cov;
+    solveFree(w, ieee_cols, &est, &cov);
+    for (size_t i = 0; i < ieee_cols.size(); ++i)
+      for (size_t j = 0; j < ieee_cols.size(); ++j) {
+        const double d = std::sqrt(cov(static_cast<int>(i), static_cast<int>(i)) * cov(static_cast<int>(j), static_cast<int>(j)));
+        r.correlation[static_cast<size_t>(P.term[static_cast<size_t>(ieee_cols[i])])]
+                     [static_cast<size_t>(P.term[static_cast<size_t>(ieee_cols[j])])] =
+            d > 0 ? cov(static_cast<int>(i), static_cast<int>(j)) / d : std::numeric_limits<double>::quiet_NaN();
+      }
+  }
+
+  // The model curve at every point and its fit error over every fitted point.
   void modelCurve() {
     for (size_t i = 0; i < curve.points.size(); ++i) {
       double v = 0;
-      for (int k = 0; k < ncol; ++k) {
-        if (!(c[k] > 0)) continue;
-        const int t = P.term[static_cast<size_t>(k)];
-        v += c[k] * columnBasis(t, curve.points[i].tau, curve.tau0, extra);
-      }
+      for (int k : pos) v += c[k] * columnBasis(P.term[static_cast<size_t>(k)], curve.points[i].tau, curve.tau0, extra);
       r.model_var[i] = v;
     }
-    DeviationCurve with_edf = curve;  // rms_log10 counts points by EDF (the non-overlapping count where none is given)
+    DeviationCurve with_edf = curve;  // points counted by EDF (the non-overlapping count where none is given)
     for (auto& p : with_edf.points)
       if (!(p.edf > 0) && p.m > 0) p.edf = static_cast<double>(curve.n_phase) / static_cast<double>(p.m) - 1.0;
     const FitError fe = fitError(with_edf, r.model_var, r.used, static_cast<int>(pos.size()), options.rms_min_edf);
     r.rms_log10 = fe.rms_log10;
     r.n_rms = fe.n_rms;
+    r.worst_adev_ratio = fe.worst_adev_ratio;
   }
 };
 
 }  // namespace
-
-bool isCloseRival(int selected_terms, int rival_terms, double score_gap, double aic_gap, const FitOptions& options) {
-  if (std::min(score_gap, aic_gap) < kRivalGap) return true;
-  const std::bitset<kNumTerms> sel(static_cast<unsigned>(selected_terms)), rival(static_cast<unsigned>(rival_terms));
-  double entry = 0.0;  // the dearest entry among the selected terms the rival lacks
-  for (int t = 0; t < kNumTerms; ++t)
-    if (sel[static_cast<size_t>(t)] && !rival[static_cast<size_t>(t)])
-      entry = std::max(entry, entryPenalty(t, options));
-  const double chi2_gap = aic_gap - 2.0 * (static_cast<double>(rival.count()) - static_cast<double>(sel.count()));
-  return chi2_gap < entry;
-}
 
 namespace detail {
 
@@ -791,23 +398,20 @@ FitResult fitNoiseModelGls(const DeviationCurve& curve, const FitOptions& option
     return g.r;
   }
   g.columns();
-  if (!g.fitFullModel()) {
-    g.r.message = "covariance of the Allan-variance points is not positive definite";
+  const char* not_pd = "covariance of the Allan-variance points is not positive definite";
+  if (!g.fit()) {
+    g.r.message = not_pd;
     return g.r;
   }
-  g.selectTerms();
-  const Whitened w = whiten(g.P, g.cov_full);
+  const Whitened w = whiten(g.P, g.P.covariance(g.c));
   if (!w.ok) {
-    g.r.message = "covariance of the Allan-variance points is not positive definite";
+    g.r.message = not_pd;
     return g.r;
   }
   g.statistics(w);
-  g.inferAll(w);
   g.r.intervals = options.intervals;
-  g.coefficients();
-  g.ambiguity(w);
-  g.widenBySupersets(w);
-  g.boundRampByRandomWalk();
+  g.coefficients(w);
+  g.correlation(w);
   g.modelCurve();
   g.r.ok = true;
   return g.r;

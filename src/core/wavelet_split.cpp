@@ -762,17 +762,11 @@ void reportCoefficients(const WaveletSplitOptions& options, const QnEstimate& e,
   }
   if (!options.enabled[kAngleRandomWalk]) r->terms[kAngleRandomWalk] = Coefficient{};
   if (!options.enabled[kQuantization]) r->terms[kQuantization] = Coefficient{};
-  r->model_terms = r->terms;
-  for (int t = kBiasInstability; t < kNumTerms; ++t) {
+  for (int t = kBiasInstability; t < kNumTerms; ++t) {  // B, K and R: the denoised fit's
     const size_t i = static_cast<size_t>(t);
-    // B, K and R are the denoised fit's answer, as the joint fit's are: the selection-corrected values (a barely
-    // selected term dropped), with the rival and superset rules' intervals (FitResult::terms_corrected). The model
-    // curve keeps the least-squares values. (Until session 16 only an ambiguous term took the corrected form, and a
-    // supported B of the RLG classes, selected in 3-17 % of their records, came out +67 to +119 % in median.)
     const FitResult& f = r->denoised_fit;
     if (!options.enabled[i] || !f.ok) continue;
-    r->model_terms[i] = f.terms[i];
-    r->terms[i] = f.terms_corrected[i];
+    r->terms[i] = f.terms[i];
   }
 }
 
@@ -787,8 +781,8 @@ std::vector<double> modelOf(const DeviationCurve& c, const std::array<Coefficien
 // 7. Fit error measures: the reported terms against the input's curve, and each part's own fit.
 void fitErrors(const DeviationCurve& raw_curve, WaveletSplitResult* r) {
   int n_params = 0;
-  for (const auto& c : r->model_terms) n_params += c.value > 0 ? 1 : 0;
-  r->fit_error = fitError(raw_curve, modelOf(raw_curve, r->model_terms), std::vector<bool>(raw_curve.points.size(), true),
+  for (const auto& c : r->terms) n_params += c.value > 0 ? 1 : 0;
+  r->fit_error = fitError(raw_curve, modelOf(raw_curve, r->terms), std::vector<bool>(raw_curve.points.size(), true),
                           std::max(1, n_params), FitOptions{}.rms_min_edf);
   if (r->denoised_fit.ok) {
     r->denoised_fit_error.rms_log10 = r->denoised_fit.rms_log10;

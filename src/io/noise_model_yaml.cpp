@@ -64,7 +64,7 @@ YAML::Node agreementNode(const CurveAgreement& c) {
 }  // namespace
 
 ReportedNoiseModel axisNoiseModel(const AxisAnalysis& a, double filter_rate_hz) {
-  const Coefficient& bi = a.fit.terms_corrected[kBiasInstability];
+  const Coefficient& bi = a.fit.terms[kBiasInstability];
   return reportedNoiseModel(a.gmwm, filter_rate_hz, bi.value, bi.sigma);
 }
 

@@ -29,8 +29,7 @@ YAML::Node coefficientNode(const Coefficient& c, const char* unit) {
   n["value"] = num(c.value);
   n["sigma"] = num(c.sigma);
   n["supported"] = c.supported;
-  // Supported: two-sided 68.3 % / 95 % intervals; not supported: the unified 68 % interval (may start above 0) and
-  // the one-sided 95 % [0, hi] (selective.hpp, docs/calibration.md).
+  // Unified intervals (unified_interval.hpp): two-sided when supported, [0, hi] for a bound; they hold the value.
   n["interval_68"] = YAML::Node(YAML::NodeType::Sequence);
   n["interval_68"].push_back(num(c.lo68));
   n["interval_68"].push_back(num(c.hi68));
@@ -46,22 +45,13 @@ YAML::Node coefficientsNode(const std::array<Coefficient, kNumTerms>& terms) {
   for (int t = 0; t < kNumTerms; ++t) n[noiseTermKey(t)] = coefficientNode(terms[static_cast<size_t>(t)], noiseTermUnit(t));
   return n;
 }
-YAML::Node coefficientsNode(const FitResult& fit) { return coefficientsNode(fit.terms_corrected); }
+YAML::Node coefficientsNode(const FitResult& fit) { return coefficientsNode(fit.terms); }
 
 YAML::Node errorNode(double rms_log10, double chi2_dof) {
   YAML::Node n;
   n["rms_log10"] = num(rms_log10);
   n["chi2_dof"] = num(chi2_dof);
   return n;
-}
-
-// The terms from `from` on that the fit selected and its selection correction then dropped (noise_model.hpp
-// terms_corrected), as a list of term keys.
-YAML::Node droppedByCorrection(const FitResult& fit, int from) {
-  YAML::Node dropped(YAML::NodeType::Sequence);
-  for (int t = from; t < kNumTerms; ++t)
-    if (fit.ok && fit.dropped_by_correction[static_cast<size_t>(t)]) dropped.push_back(str(noiseTermKey(t)));
-  return dropped;
 }
 
 YAML::Node splitNode(const WaveletSplitResult& w) {
@@ -108,8 +98,6 @@ YAML::Node splitNode(const WaveletSplitResult& w) {
   est["n_removed"] = num(w.n_removed);
   n["estimates"] = est;
   n["denoised_fit"] = errorNode(w.denoised_fit_error.rms_log10, w.denoised_fit_error.chi2_dof);
-  // B, K, R of `coefficients` are the denoised fit's corrected answer: those selected, then dropped (value 0).
-  n["dropped_by_selection_correction"] = droppedByCorrection(w.denoised_fit, kBiasInstability);
   n["removed_fit"] = errorNode(w.removed_fit_error.rms_log10, w.removed_fit_error.chi2_dof);
   return n;
 }
@@ -189,37 +177,15 @@ std::string spikesLine(const AxisAnalysis& a, const char* label, double factor, 
   return std::string(buf) + "\n";
 }
 
-/// The closest non-nested rival set of terms of a fit, its values and gaps, every close rival (isCloseRival), and the
-/// terms they make ambiguous (noise_model.hpp FitResult::rival_terms, FitResult::ambiguous; `ambiguous` as they apply
-/// to what is reported).
-void addRivalFields(YAML::Node* n, const FitResult& fit, const std::array<bool, kNumTerms>& ambiguous) {
-  YAML::Node rival(YAML::NodeType::Sequence), amb(YAML::NodeType::Sequence);
-  for (int t = 0; t < kNumTerms; ++t) {
-    if ((fit.rival_terms >> t) & 1) {
-      rival.push_back(str(noiseTermKey(t)));
-      (*n)["rival_values"][noiseTermKey(t)] = num(fit.rival_values[static_cast<size_t>(t)]);
-    }
-    if (ambiguous[static_cast<size_t>(t)]) amb.push_back(str(noiseTermKey(t)));
-  }
-  (*n)["rival_terms"] = rival;
-  (*n)["rival_gap"] = num(fit.rival_gap);
-  (*n)["rival_score_gap"] = num(fit.rival_score_gap);
-  (*n)["rival_aic_gap"] = num(fit.rival_aic_gap);
-  YAML::Node close(YAML::NodeType::Sequence);
-  for (int terms : fit.close_rival_terms) close.push_back(str(noiseTermSetName(terms)));
-  (*n)["close_rivals"] = close;
-  (*n)["ambiguous_terms"] = amb;
-}
-
-/// The larger sets of terms within kSupersetGap of a fit's selection and the terms whose interval they widened
-/// (noise_model.hpp FitResult::close_superset_terms, FitResult::widened; `widened` as it applies to what is reported).
-void addSupersetFields(YAML::Node* n, const FitResult& fit, const std::array<bool, kNumTerms>& widened) {
-  YAML::Node sets(YAML::NodeType::Sequence), wid(YAML::NodeType::Sequence);
-  for (int terms : fit.close_superset_terms) sets.push_back(str(noiseTermSetName(terms)));
-  for (int t = 0; t < kNumTerms; ++t)
-    if (widened[static_cast<size_t>(t)]) wid.push_back(str(noiseTermKey(t)));
-  (*n)["close_supersets"] = sets;
-  (*n)["widened_terms"] = wid;
+/// The correlation of B, K and R's free estimates in a fit (FitResult::correlation): how they trade.
+YAML::Node correlationNode(const FitResult& fit) {
+  YAML::Node n;
+  const int t[3] = {kBiasInstability, kRateRandomWalk, kRateRamp};
+  for (int i = 0; i < 3; ++i)
+    for (int j = i + 1; j < 3; ++j)
+      n[std::string(noiseTermKey(t[i])) + "/" + noiseTermKey(t[j])] =
+          num(fit.correlation[static_cast<size_t>(t[i])][static_cast<size_t>(t[j])]);
+  return n;
 }
 
 YAML::Node fitNode(const FitResult& fit) {
@@ -235,14 +201,9 @@ YAML::Node fitNode(const FitResult& fit) {
     n["chi2_p"] = num(fit.chi2_p);
     n["uncertainty"] = str(fit.uncertainty);
     n["uncertainty_inflation"] = num(fit.uncertainty_inflation);
-    // Generalized chi-squared a selected term saves (or an unselected one would save); selection needs > penalty.
+    // How much the generalized chi-squared rises when each term is held at 0.
     for (int t = 0; t < kNumTerms; ++t) n["evidence_chi2"][noiseTermKey(t)] = num(fit.evidence[static_cast<size_t>(t)]);
-    // Selected, then dropped: the selection-corrected value is 0 (noise_model.hpp terms_corrected).
-    n["dropped_by_selection_correction"] = droppedByCorrection(fit, 0);
-    addRivalFields(&n, fit, fit.ambiguous);
-    addSupersetFields(&n, fit, fit.widened);
-    // A selected ramp's 95 % interval widened to allow the rate random walk the record cannot exclude.
-    n["ramp_95_allows_random_walk"] = fit.ramp_bounded_by_random_walk;
+    n["correlation"] = correlationNode(fit);
   } else {
     n["weighting"] = str("edf");
   }
@@ -441,15 +402,7 @@ YAML::Node buildReport(const ReportMeta& meta, const std::vector<AxisAnalysis>& 
     n["coefficients"] = coefficientsNode(a.coefficients);
     n["fit"] = errorNode(a.final_error.rms_log10, a.final_error.chi2_dof);
     addQuality(&n, a);
-    {
-      // The term selection behind `coefficients` (answerFit): its non-nested rivals and the answer's terms they make
-      // ambiguous (also in methods.<method>.fit for the joint fit and pulse_times).
-      YAML::Node ts;
-      addRivalFields(&ts, answerFit(a), answerAmbiguous(a));
-      addSupersetFields(&ts, answerFit(a), answerWidened(a));
-      ts["ramp_95_allows_random_walk"] = answerRampBounded(a);
-      n["term_selection"] = ts;
-    }
+    if (answerFit(a).ok && answerFit(a).gls) n["correlation"] = correlationNode(answerFit(a));  // how B, K, R trade
     if (a.quantized.quantized) n["quantized_output"] = quantizedNode(a.quantized);
     YAML::Node jf;
     jf["coefficients"] = coefficientsNode(a.fit);

@@ -141,7 +141,7 @@ AxisNoiseFit toAxisMsg(const AxisAnalysis& a) {
       em.delta_bic = e.delta_bic;
       m.effects.push_back(em);
     }
-    for (int t = 0; t < kNumTerms; ++t) m.corrected.push_back(toMsg(a.check.fit_after.terms_corrected[t]));
+    for (int t = 0; t < kNumTerms; ++t) m.corrected.push_back(toMsg(a.check.fit_after.terms[t]));
     m.rejected = a.check.rejected;
   } else if (a.has_check) {
     m.model_check_note = "model check failed: " + a.check.message;

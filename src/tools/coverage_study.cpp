@@ -464,9 +464,6 @@ int main(int argc, char** argv) {
           r.rms_log10 = a.final_error.rms_log10;
           r.chi2_dof = a.final_error.chi2_dof;
           const FitResult& f = answerFit(a);
-          for (int t = 0; t < kNumTerms; ++t)
-            if (f.rival_terms & (1 << t)) r.rival += kTermShort[t];
-          r.rival_gap = f.rival_gap;
           r.evidence = f.evidence;
           r.ok = true;
         } catch (const std::exception& e) {
