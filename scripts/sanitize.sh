@@ -11,9 +11,9 @@ BUILD_DIR=${BUILD_DIR:-.build-asan}
 REGEX=${1:-^_ctest_gyro_allan_gtest_}
 start=$(date +%s)
 # -g1: line tables for the sanitizer's stack traces without full debug info, which compiles 25-30 % faster
-# (noise_model_gls.cpp 55 s -> 38 s, test_gmwm.cpp 18 s -> 14 s under ASan + UBSan; session 10).
+# (noise_model_gls.cpp 55 s -> 38 s, test_gmwm.cpp 18 s -> 14 s under ASan + UBSan).
 # -O1 (the optimisation level the AddressSanitizer documentation suggests): CI's core targets built in 300 s and
-# tested in 116 s, against 436 s and 149 s at -O2 (side by side on one idle 2-core machine, session 19).
+# tested in 116 s, against 436 s and 149 s at -O2 (side by side on one idle 2-core machine).
 cmake -S . -B "$BUILD_DIR" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1 -DNDEBUG" \
   -DCATKIN_ENABLE_TESTING=ON -DGYRO_ALLAN_SANITIZE=ON \
   >"$BUILD_DIR.configure.log" 2>&1 || { cat "$BUILD_DIR.configure.log"; exit 1; }

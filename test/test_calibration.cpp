@@ -1,5 +1,5 @@
-// Calibration of the IEEE fit's intervals and term selection on simulated gyros with declared noise (fixed seeds):
-// coverage of the 68 % / 95 % intervals and the phantom-term rate, with tolerances from the binomial spread.
+// Calibration of the IEEE fit's intervals on simulated gyros with declared noise (fixed seeds): coverage of the 68 % /
+// 95 % intervals and the phantom-term rate, with tolerances from the binomial spread.
 #include <gtest/gtest.h>
 
 #include <boost/math/distributions/chi_squared.hpp>
@@ -34,16 +34,16 @@ struct Counts {
 struct Tally {
   Counts all;                   // terms with truth > 0
   Counts sel_term[kNumTerms];   // ... supported, per term: [lo, hi]
-  Counts drop_term[kNumTerms];  // ... not supported, per term: [lo (usually 0), hi]
+  Counts drop_term[kNumTerms];  // ... not supported (95 % interval from 0), per term
   int zeros = 0, phantom = 0;   // terms with truth 0
   double n_z2 = 0;              // sum of ((N - truth) / sigma)^2
   double n_z = 0;               // sum of (N - truth) / sigma
   int n_cases = 0;
-  int ramp_bounded = 0;         // fits whose ramp's 95 % interval allows a dropped K (ramp_bounded_by_random_walk)
   // The unsupported terms of `terms` pooled (all five by default).
   Counts dropped(std::initializer_list<int> terms = kAllTerms) const { return pooled(drop_term, terms); }
-  // The supported terms, pooled.
+  // The supported terms, pooled (all five by default).
   Counts selected() const { return pooled(sel_term, kAllTerms); }
+  Counts pooledSelected(std::initializer_list<int> terms) const { return pooled(sel_term, terms); }
 
  private:
   static constexpr std::initializer_list<int> kAllTerms = {kQuantization, kAngleRandomWalk, kBiasInstability,
@@ -78,9 +78,8 @@ void runClass(const AxisNoise& noise, double rate_hz, double duration_s, uint64_
   th.join();
   for (const FitResult& f : fits) {
     ASSERT_TRUE(f.ok) << f.message;
-    t->ramp_bounded += f.ramp_bounded_by_random_walk ? 1 : 0;
     for (int k = 0; k < kNumTerms; ++k) {
-      const Coefficient& co = f.terms_corrected[static_cast<size_t>(k)];
+      const Coefficient& co = f.terms[static_cast<size_t>(k)];
       if (k == kAngleRandomWalk && co.supported && co.sigma > 0) {
         t->n_z2 += std::pow((co.value - truth[k]) / co.sigma, 2);
         t->n_z += (co.value - truth[k]) / co.sigma;
@@ -110,11 +109,11 @@ void expectAtLeast95(int hits, int n, const char* what) {
   EXPECT_GE(static_cast<double>(hits) / n, 0.95 - 3 * std::sqrt(0.95 * 0.05 / n)) << what << ": " << hits << "/" << n;
 }
 
-// The dropped K's and R's coverage of a run, printed.
+// The unsupported K's and R's coverage of a run, printed.
 void printDroppedLongTau(const Tally& t) {
   const Counts& k = t.drop_term[kRateRandomWalk];
   const Counts& r = t.drop_term[kRateRamp];
-  std::printf("dropped K: 68 %% %d/%d, 95 %% %d/%d; dropped R: 68 %% %d/%d, 95 %% %d/%d\n", k.in68, k.cases, k.in95,
+  std::printf("unsupported K: 68 %% %d/%d, 95 %% %d/%d; unsupported R: 68 %% %d/%d, 95 %% %d/%d\n", k.in68, k.cases, k.in95,
               k.cases, r.in68, r.cases, r.in95, r.cases);
 }
 
@@ -140,8 +139,8 @@ AxisNoise tacticalWithRamp() {
 }  // namespace
 
 TEST(Calibration, IntervalsCoverAndNoPhantomTerms) {
-  // Two classes (validation-style seeds 7001..): the issue's MEMS example (N, B, K; Q and R absent) and a dithered
-  // ring-laser gyro (Q, N, B; K and R absent). 30 records each, 30 min at 100 Hz.
+  // Two classes (seeds 7001..): the issue's MEMS example (N, B, K; Q and R absent) and a dithered ring-laser gyro
+  // (Q, N, B; K and R absent). 30 records each, 30 min at 100 Hz.
   Tally t;
   runClass(issueMems(), 100, 1800, 7001, 30, &t);
   AxisNoise rlg;
@@ -157,28 +156,18 @@ TEST(Calibration, IntervalsCoverAndNoPhantomTerms) {
               "phantom terms %d/%d\n",
               a.in68, a.cases, a.in95, a.cases, sel.in68, sel.cases, sel.in95, sel.cases, d.in68, d.cases, d.in95,
               d.cases, t.phantom, t.zeros);
-  // Supported terms: intervals conditional on the selection (selective.hpp) hold the truth at their nominal rate.
+  // The unified intervals hold the truth at their nominal rate whether the term is far above its noise or below it.
   // Pooled over terms (cases within a record are not independent; the 3-sigma band still allows for it).
-  expectBinomial(sel.in68, sel.cases, 0.683, "68 % intervals of supported terms holding the truth");
-  expectAtLeast95(sel.in95, sel.cases, "95 % intervals of supported terms holding the truth");
-  // Terms not supported: the 68 % interval is the unified (Feldman-Cousins) one of the dropped estimate's truncated
-  // distribution, at its nominal rate also where the truth is far below detection (the 30-min records' B and K);
-  // the 95 % one is the one-sided power-constrained bound: no under-coverage. Overall, 68 % at nominal too.
-  expectBinomial(d.in68, d.cases, 0.683, "68 % intervals of unsupported terms holding the truth");
   expectBinomial(a.in68, a.cases, 0.683, "68 % intervals holding the truth");
-  expectAtLeast95(d.in95, d.cases, "95 % bounds of unsupported terms holding the truth");
   expectAtLeast95(a.in95, a.cases, "95 % intervals holding the truth");
-  // Phantom terms: the selection penalty 4 (6 for the ramp) aims at <= 5 % per absent term.
+  // Phantom terms: an absent term whose 95 % interval excludes 0 happens at most ~5 % of the time by construction.
   EXPECT_LE(static_cast<double>(t.phantom) / t.zeros, 0.05 + 3 * std::sqrt(0.05 * 0.95 / t.zeros))
       << "absent terms reported supported: " << t.phantom << "/" << t.zeros;
 }
 
 TEST(Calibration, AngleRandomWalkSigmaMatchesItsScatter) {
-  // N is always selected; its sigma comes from the selected columns. With the full model's columns (the quantization
-  // column, nearly collinear with N's, in as well) the interval was wider than the scatter where Q is 0: rms of
-  // (N - truth) / sigma 0.67-0.93 in the joint-fit classes of coverage_study. 200 records of the issue's MEMS
-  // example (Q = 0), 1 h at 20 Hz, seeds 7201..: sum z^2 is chi-squared with 200 dof if sigma is right; the test
-  // takes its central 99.7 % range. Measured: 210 (rms z 1.03); with the full model's columns 144 (0.85), a failure.
+  // 200 records of the issue's MEMS example (Q = 0), 1 h at 20 Hz, seeds 7201..: sum z^2 of (N - truth) / sigma is
+  // chi-squared with 200 dof if sigma is right; the test takes its central 99.7 % range.
   Tally t;
   runClass(issueMems(), 20, 3600, 7201, 200, &t);
   ASSERT_EQ(t.n_cases, 200);
@@ -190,100 +179,62 @@ TEST(Calibration, AngleRandomWalkSigmaMatchesItsScatter) {
   EXPECT_LE(t.n_z2, hi) << "N's sigma is narrower than its scatter";
 }
 
-// A rate random walk below its entry threshold (K = 10 deg/h/sqrt(h) beside B = 3 deg/h, 2 h at 100 Hz: K is
-// selected in ~5-10 % of the records) pushes the bias instability up when it is left out. A larger set of terms
-// within kSupersetGap on AIC widens B's interval towards that set's value (FitResult::widened): B's 68 % interval must
-// hold the truth at its nominal rate within the binomial band, and more often than the unwidened one (`terms`, the
-// same fit's intervals before the widening and the rival rule, which does not act on B in these records; the
-// study's seeds 1-40: 0.58 -> 0.70, 21001-21060: 0.58 -> 0.68).
-TEST(Calibration, BiasInstabilityCoversWhereRateRandomWalkIsBelowEntry) {
+// Flicker and rate random walk that trade over the longest taus (N 0.25 deg/sqrt(h), B 3 deg/h, K 10 deg/h/sqrt(h);
+// 2 h at 100 Hz): B's and K's 68 % intervals hold the truth at their nominal rate and their 95 % ones at least
+// that often. 60 records, seeds 7401..
+TEST(Calibration, TradingBiasAndRandomWalkCover) {
   AxisNoise a;
   a.angle_random_walk = 0.25 / 60 * kDeg;
   a.bias_instability = 3.0 / 3600 * kDeg;
   a.rate_random_walk = 10.0 / 3600 / 60 * kDeg;
-  const int n = 30;
-  std::vector<FitResult> fits(static_cast<size_t>(n));
-  auto work = [&](int part) {
-    for (int s = part; s < n; s += 2) {
-      const std::vector<double> y = simulateAxis(a, 100.0, 720000, 7201 + static_cast<uint64_t>(s));
-      DeviationCurve c = computeDeviation("oadev", y, InputKind::Rate, 0.01, DeviationOptions{});
-      enforceRedderWithTau(&c, 0.683);
-      fits[static_cast<size_t>(s)] = fitWithModelEdf(&c, FitOptions{}, 0.683);
-    }
-  };
-  std::thread th(work, 1);
-  work(0);
-  th.join();
-  const double b = a.bias_instability;
-  int in68 = 0, in95 = 0, plain68 = 0, widened = 0, supported = 0, ambiguous = 0;
-  for (const FitResult& f : fits) {
-    ASSERT_TRUE(f.ok) << f.message;
-    const Coefficient& co = f.terms_corrected[kBiasInstability];
-    const Coefficient& plain = f.terms[kBiasInstability];
-    in68 += co.lo68 <= b && b <= co.hi68;
-    in95 += co.lo95 <= b && b <= co.hi95;
-    plain68 += plain.lo68 <= b && b <= plain.hi68;
-    widened += f.widened[kBiasInstability];
-    supported += co.supported;
-    ambiguous += f.ambiguous[kBiasInstability];
-    if (f.widened[kBiasInstability]) {  // widened, never narrowed, and only by a larger set within the gap
-      EXPECT_TRUE(co.lo68 <= plain.lo68 && co.hi68 >= plain.hi68 && co.lo95 <= plain.lo95 && co.hi95 >= plain.hi95);
-      EXPECT_TRUE(co.lo68 < plain.lo68 || co.hi68 > plain.hi68 || co.lo95 < plain.lo95 || co.hi95 > plain.hi95);
-      EXPECT_FALSE(f.close_superset_terms.empty());
-    }
+  Tally t;
+  runClass(a, 100, 7200, 7401, 60, &t);
+  for (int k : {kBiasInstability, kRateRandomWalk}) {
+    Counts c = t.sel_term[k];
+    c.cases += t.drop_term[k].cases, c.in68 += t.drop_term[k].in68, c.in95 += t.drop_term[k].in95;
+    std::printf("%s: 68 %% %d/%d, 95 %% %d/%d (supported in %d)\n", noiseTermKey(k), c.in68, c.cases, c.in95,
+                c.cases, t.sel_term[k].cases);
+    expectBinomial(c.in68, c.cases, 0.683, noiseTermKey(k));
+    expectAtLeast95(c.in95, c.cases, noiseTermKey(k));
   }
-  std::printf("B: 68 %% %d/%d (without the widening %d), 95 %% %d/%d; widened in %d, supported in %d\n", in68, n,
-              plain68, in95, n, widened, supported);
-  EXPECT_GE(supported, n * 3 / 4);  // the class is one where B is detected
-  EXPECT_GE(widened, 3);            // the rule acts in this class
-  EXPECT_EQ(ambiguous, 0);          // so that `terms` against terms_corrected is the widening alone
-  expectBinomial(in68, n, 0.683, "B's 68 % intervals holding the truth");
-  expectAtLeast95(in95, n, "B's 95 %");
-  EXPECT_GT(in68, plain68);
 }
 
 // A rate random walk and a rate ramp far below what a 1 h record detects (the coverage study's tactical_ramp class:
-// N 0.1 deg/sqrt(h), B 0.8 deg/h, K 0.5 deg/h/sqrt(h), R 2 deg/h^2, 200 Hz), both dropped: their unified 68 %
-// intervals must hold the truth at the nominal rate within the binomial band, their 95 % bounds at least 95 %.
-// 120 records, simulateAxis seeds 8301..; K and R pooled (the two terms of a record are not independent; the 3-sigma
-// band still allows for it). Measured: K 89/120, R 83/120 (pooled 0.717; before session 20's joint estimate of the
-// dropped K and R, 83/120 and 87/120). The study's analyzeAxis runs of the class measured K 0.72-0.85 and R
-// 0.78-0.83 per seed set of 40-100 records before it (docs/calibration.md, "Session 18"). The band guards against
-// drifts of 10 points or more; it could not tell session 18's rejected 0.60 level (77/120, 79/120).
-TEST(Calibration, DroppedLongTauTermsCoverAtTheirStatedRate) {
+// N 0.1 deg/sqrt(h), B 0.8 deg/h, K 0.5 deg/h/sqrt(h), R 2 deg/h^2, 200 Hz): their 68 % intervals (upper bounds
+// mostly) must hold the truth at the nominal rate within the binomial band, their 95 % ones at least 95 %. 120
+// records, seeds 8301..; K and R pooled (the two terms of a record are not independent; the 3-sigma band still
+// allows for it).
+TEST(Calibration, LongTauTermsBelowDetectionCoverAtTheirStatedRate) {
   const AxisNoise a = tacticalWithRamp();
   Tally t;
   runClass(a, 200, 3600, 8301, 120, &t);
-  const Counts d = t.dropped({kRateRandomWalk, kRateRamp});
+  Counts d = t.dropped({kRateRandomWalk, kRateRamp});
+  const Counts s = t.pooledSelected({kRateRandomWalk, kRateRamp});
   printDroppedLongTau(t);
-  ASSERT_GE(d.cases, 200);  // K and R are dropped in nearly every record
-  expectBinomial(d.in68, d.cases, 0.683, "68 % intervals of dropped K and R holding the truth");
-  expectAtLeast95(d.in95, d.cases, "95 % bounds of dropped K and R");
+  d.cases += s.cases, d.in68 += s.in68, d.in95 += s.in95;
+  expectBinomial(d.in68, d.cases, 0.683, "68 % intervals of K and R holding the truth");
+  expectAtLeast95(d.in95, d.cases, "95 % intervals of K and R");
 }
 
-// The tactical class with a ramp (as above) over 4 h at 50 Hz, where K and R are both dropped in most records and
-// nearer detection. A dropped K fitted with the selected terms alone took up the dropped ramp's rise, and its 68 %
-// interval started above the truth (coverage_study, 60 records: K 0.35, the lower end above the truth in 62 %).
-// Since session 20 the dropped K and R are estimated together (noise_model_gls.cpp, jointEstimate). The dropped K's
-// 68 % intervals must hold the truth at the nominal rate within the binomial band, its 95 % bounds at least 95 %.
-// 60 records, simulateAxis seeds 8501..; measured 47/60 (95 %: 60/60), and 22/60 before the joint estimate.
-TEST(Calibration, DroppedRandomWalkBesideADroppedRampCovers) {
+// The same class over 4 h at 50 Hz, where K and R are nearer detection and trade with each other: K's 68 % intervals
+// hold the truth at the nominal rate within the binomial band, its 95 % ones at least 95 %. 60 records, seeds 8501..
+TEST(Calibration, RandomWalkBesideARampCovers) {
   const AxisNoise a = tacticalWithRamp();
   Tally t;
   runClass(a, 50, 4 * 3600, 8501, 60, &t);
-  const Counts& k = t.drop_term[kRateRandomWalk];
+  Counts k = t.drop_term[kRateRandomWalk];
+  k.cases += t.sel_term[kRateRandomWalk].cases, k.in68 += t.sel_term[kRateRandomWalk].in68,
+      k.in95 += t.sel_term[kRateRandomWalk].in95;
   printDroppedLongTau(t);
-  ASSERT_GE(k.cases, 40);  // K is dropped in most records
-  expectBinomial(k.in68, k.cases, 0.683, "68 % intervals of the dropped K holding the truth");
-  expectAtLeast95(k.in95, k.cases, "95 % bounds of the dropped K");
+  expectBinomial(k.in68, k.cases, 0.683, "68 % intervals of K holding the truth");
+  expectAtLeast95(k.in95, k.cases, "95 % intervals of K");
 }
 
 // A strong flicker bias instability beside a weak angle random walk (N 0.25 deg/sqrt(h), B 30 deg/h; 1 h at 100 Hz).
 // A sampled flicker's Allan variance is not flat at the shortest taus where N is read: 1.44, 1.15, 1.05 times its
-// floor at 1, 2 and 4 samples (flickerAvarShape). With a flat B column that excess was read as angle random walk, and
-// N came out high by about two of its sigmas here (cons4h, N 0.25 and B 8 at 4 h: mean z +0.45, N's 95 % coverage 0.87
-// of 200; docs/calibration.md, "Session 22"). The mean of (N - truth) / sigma over the records must lie within 3 of its
-// standard errors (1 / sqrt(n)) of 0, and sum z^2 within chi-squared's central 99.7 %. 30 records, seeds 8701..
+// floor at 1, 2 and 4 samples (flickerAvarShape); with a flat B column that excess would be read as angle random
+// walk. The mean of (N - truth) / sigma over the records must lie within 3 of its standard errors (1 / sqrt(n)) of 0,
+// and sum z^2 within chi-squared's central 99.7 %. 30 records, seeds 8701..
 TEST(Calibration, AngleRandomWalkIsUnbiasedBesideAStrongFlicker) {
   AxisNoise a;
   a.angle_random_walk = 0.25 / 60 * kDeg;
@@ -299,26 +250,20 @@ TEST(Calibration, AngleRandomWalkIsUnbiasedBesideAStrongFlicker) {
   EXPECT_LE(t.n_z2, boost::math::quantile(chi2, 0.9985)) << "N's sigma is narrower than its scatter";
 }
 
-// A gyro whose rate ramp is plain but whose rate random walk is not (N 0.15 deg/sqrt(h), K 3 deg/h/sqrt(h), R 20
-// deg/h^2; 2 h at 100 Hz): R is selected and K dropped in most records. The ramp's Allan estimates scatter through
-// the rate random walk's wander (a cross term that grows with K), and the full model's K, which the ramp's interval
-// was computed at, is 0 in most such records: R's 95 % interval held the truth in 69 of 100 records, 85 of them with R
-// supported (coverage_study, seeds 28001-28100). Since session 21 a selected ramp's 95 % interval allows K up to the
-// upper end of K's 68 % interval (noise_model_gls.cpp, boundRampByRandomWalk). The supported R's 95 % intervals must
-// hold the truth at least 95 % of the time, less the binomial allowance, and the bound must act in most records. Its
-// 68 % intervals still under-cover (docs/calibration.md, "Session 21"), so they are printed, not checked. 60 records,
-// simulateAxis seeds 8601..
-TEST(Calibration, SelectedRampBesideADroppedRandomWalkCoversAt95) {
+// A gyro whose rate ramp is plain but whose rate random walk is weak (N 0.15 deg/sqrt(h), K 3 deg/h/sqrt(h), R 20
+// deg/h^2; 2 h at 100 Hz): R's 95 % intervals hold the truth at least 95 % of the time, less the binomial allowance,
+// and its 68 % ones at the nominal rate. 60 records, seeds 8601..
+TEST(Calibration, RampBesideAWeakRandomWalkCovers) {
   AxisNoise a;
   a.angle_random_walk = 0.15 / 60 * kDeg;
   a.rate_random_walk = 3.0 / 3600 / 60 * kDeg;
   a.rate_ramp = 20.0 / 3600 / 3600 * kDeg;
   Tally t;
   runClass(a, 100, 2 * 3600, 8601, 60, &t);
-  const Counts& r = t.sel_term[kRateRamp];
-  EXPECT_GT(t.ramp_bounded, r.cases / 2) << "the bound acts in most of these records";
-  std::printf("selected R: 68 %% %d/%d, 95 %% %d/%d (widened in %d); dropped K: 68 %% %d/%d\n", r.in68, r.cases,
-              r.in95, r.cases, t.ramp_bounded, t.drop_term[kRateRandomWalk].in68, t.drop_term[kRateRandomWalk].cases);
-  ASSERT_GE(r.cases, 40);  // R is selected in most records
-  expectAtLeast95(r.in95, r.cases, "95 % intervals of the selected R beside a dropped K");
+  Counts r = t.sel_term[kRateRamp];
+  r.cases += t.drop_term[kRateRamp].cases, r.in68 += t.drop_term[kRateRamp].in68, r.in95 += t.drop_term[kRateRamp].in95;
+  std::printf("R: 68 %% %d/%d, 95 %% %d/%d (supported in %d)\n", r.in68, r.cases, r.in95, r.cases,
+              t.sel_term[kRateRamp].cases);
+  expectBinomial(r.in68, r.cases, 0.683, "68 % intervals of R");
+  expectAtLeast95(r.in95, r.cases, "95 % intervals of R");
 }

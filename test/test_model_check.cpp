@@ -127,7 +127,7 @@ void expectRuleHolds(const ModelCheck& mc, const std::string& what) {
   // The trials were fitted without their intervals (FitOptions::intervals); what is kept has them.
   EXPECT_TRUE(mc.fit_after.intervals);
   for (int k = 0; k < kNumTerms; ++k) {
-    const Coefficient& c = mc.fit_after.terms_corrected[static_cast<size_t>(k)];
+    const Coefficient& c = mc.fit_after.terms[static_cast<size_t>(k)];
     EXPECT_TRUE(std::isfinite(c.hi68) && std::isfinite(c.hi95) && std::isfinite(c.sigma)) << noiseTermKey(k);
   }
   ASSERT_EQ(mc.fit_after.extra.size(), mc.effects.size());
@@ -370,10 +370,10 @@ TEST(ModelCheck, BiasStepFound) {
     EXPECT_LT(o.mc.after.rms_log10, (1.0 - ModelCheckOptions{}.min_rms_gain) * o.mc.before.rms_log10);
     EXPECT_LT(o.mc.after.bic, o.mc.before.bic - 10.0);
     expectBaseRecovered(o.mc.fit_after, a);
-    // The answer's K and R (terms_corrected, what report.yaml and Kalibr take) are bounds, not zeros: the refit that
+    // The answer's K and R (what report.yaml and Kalibr take) are bounds, not zeros: the refit that
     // explains the rise by the step leaves them out and bounds them from the fit that had them.
     for (int t : {kRateRandomWalk, kRateRamp}) {
-      const Coefficient& c = o.mc.fit_after.terms_corrected[static_cast<size_t>(t)];
+      const Coefficient& c = o.mc.fit_after.terms[static_cast<size_t>(t)];
       std::printf("answer %s: supported %d value %.3g sigma %.3g [%.3g, %.3g] / [%.3g, %.3g]\n", noiseTermKey(t),
                   c.supported ? 1 : 0, c.value, c.sigma, c.lo68, c.hi68, c.lo95, c.hi95);
       EXPECT_GT(c.sigma, 0.0) << noiseTermKey(t);

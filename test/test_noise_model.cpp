@@ -37,28 +37,6 @@ DeviationCurve modelCurve(const std::array<double, kNumTerms>& coef, double tau0
 
 constexpr double kArcsec = M_PI / 180.0 / 3600.0;
 
-// The tactical gyro of the rival tests (N 0.1 deg/sqrt(h), B 0.8 deg/h, K 0.5 deg/h/sqrt(h), R as given in deg/h^2),
-// one hour at 20 Hz, fitted as analyze_bag fits it.
-FitResult fitTacticalHour(double ramp_deg_h2, uint64_t seed, const FitOptions& options = {}) {
-  const double deg = M_PI / 180.0;
-  AxisNoise a;
-  a.angle_random_walk = 0.1 * deg / 60.0;
-  a.bias_instability = 0.8 * deg / 3600.0;
-  a.rate_random_walk = 0.5 * deg / 3600.0 / 60.0;
-  a.rate_ramp = ramp_deg_h2 * deg / 3600.0 / 3600.0;
-  const std::vector<double> y = simulateAxis(a, 20.0, 72000, seed, 0);
-  DeviationCurve c = computeDeviation("oadev", y, InputKind::Rate, 1.0 / 20.0, DeviationOptions{});
-  return fitWithModelEdf(&c, options, 0.683);
-}
-
-// What the subset search selected (FitResult::terms: the least-squares values, before any correction), as a bit set.
-int selectedTerms(const FitResult& f) {
-  int sel = 0;
-  for (int t = 0; t < kNumTerms; ++t)
-    if (f.terms[static_cast<size_t>(t)].supported) sel |= 1 << t;
-  return sel;
-}
-
 }  // namespace
 
 TEST(NoiseModel, RecoversExactModelCurve) {
@@ -187,8 +165,8 @@ TEST(NoiseModel, RecoversMemsCoefficientsFromSimulation) {
       const FitResult f = analyzeAxis("x", {y}, 1.0 / 400.0, AnalysisOptions{}).fit;
       ASSERT_TRUE(f.ok);
       EXPECT_NEAR(f.terms[kAngleRandomWalk].value / 2e-4, 1.0, 0.03) << "seed " << seed << " axis " << axis;
-      const auto& b = f.terms_corrected[kBiasInstability];
-      const auto& k = f.terms_corrected[kRateRandomWalk];
+      const auto& b = f.terms[kBiasInstability];
+      const auto& k = f.terms[kRateRandomWalk];
       std::printf("seed %d axis %d: B %.3g [%.3g, %.3g]%s, K %.3g [%.3g, %.3g]%s\n", static_cast<int>(seed), axis,
                   b.value, b.lo95, b.hi95, b.supported ? "" : " (not supported)", k.value, k.lo95, k.hi95,
                   k.supported ? "" : " (not supported)");
@@ -215,227 +193,16 @@ TEST(NoiseModel, RecoversRlgCoefficientsFromSimulation) {
   }
 }
 
-// Term selection's non-nested rivals (FitResult::rival_terms, close_rival_terms): for every close rival (isCloseRival:
-// within kRivalGap on the score or on AIC, a swap within a swapped-out term's entry penalty in chi-squared), the
-// answer claims no term the rival does without; a term is ambiguous exactly when some
-// close rival disagrees with the selection on it; and the closest rival's terms the answer lacks have intervals
-// reaching its values. A tactical gyro with a weak ramp (N 0.1 deg/sqrt(h), B 0.8 deg/h, K 0.5 deg/h/sqrt(h),
-// R 6 deg/h^2; 1 h at 20 Hz), where N+B and N+K tell many records about equally well: seeds 7801-7830 hold both kinds
-// (session 12: 9 of the 30 within the gap; 9 selected terms flagged, 10 rival terms checked; session 13, with AIC's
-// side and every close rival: the figures the test prints). In these records the rival's terms already had intervals
-// past its values, so nothing was widened: that branch is a guard.
-TEST(NoiseModel, CloseRivalMakesTheTermsItDisagreesOnAmbiguous) {
-  int close = 0, far = 0, removed = 0, rival_checked = 0, aic_only = 0, by_other_rival = 0;
-  for (uint64_t seed = 7801; seed <= 7830; ++seed) {
-    const FitResult f = fitTacticalHour(6.0, seed);
-    ASSERT_TRUE(f.ok) << f.message;
-    ASSERT_NE(f.rival_terms, 0) << "seed " << seed;
-    const int sel = selectedTerms(f);
-    EXPECT_NE(f.rival_terms & sel, f.rival_terms) << "seed " << seed << ": the rival is a subset of the selection";
-    EXPECT_NE(f.rival_terms & sel, sel) << "seed " << seed << ": the rival is a superset of the selection";
-    EXPECT_DOUBLE_EQ(f.rival_gap, std::min(f.rival_score_gap, f.rival_aic_gap)) << "seed " << seed;
-    // the closest rival, close by its own measure (any close rival is within the largest penalty)
-    const bool closest_close =
-        isCloseRival(sel, f.rival_terms, f.rival_score_gap, f.rival_aic_gap, FitOptions{});
-    if (closest_close) {
-      ASSERT_FALSE(f.close_rival_terms.empty()) << "seed " << seed;
-      EXPECT_EQ(f.close_rival_terms.front(), f.rival_terms) << "seed " << seed;
-    }
-    if (f.rival_gap < kRivalGap) {
-      EXPECT_TRUE(closest_close) << "seed " << seed;
-    }
-    if (!f.close_rival_terms.empty()) {
-      EXPECT_LT(f.rival_gap, FitOptions{}.ramp_penalty) << "seed " << seed;
-    }
-    if (f.rival_score_gap >= kRivalGap && f.rival_aic_gap < kRivalGap) ++aic_only;
-    for (int rt : f.close_rival_terms) {  // each listed rival: non-nested, and keeps N
-      EXPECT_NE(rt & sel, rt) << "seed " << seed;
-      EXPECT_NE(rt & sel, sel) << "seed " << seed;
-      EXPECT_TRUE((rt >> kAngleRandomWalk) & 1) << "seed " << seed;
-    }
-    for (int t = 0; t < kNumTerms; ++t) {
-      const size_t i = static_cast<size_t>(t);
-      const bool in_rival = (f.rival_terms >> t) & 1, selected = (sel >> t) & 1;
-      const Coefficient& cc = f.terms_corrected[i];
-      bool disputed = false;  // by some rival within the gap
-      for (int rt : f.close_rival_terms) disputed = disputed || (((rt >> t) & 1) != selected);
-      EXPECT_EQ(f.ambiguous[i], disputed) << "seed " << seed << " " << noiseTermKey(t);
-      if (disputed && (!closest_close || in_rival == selected)) ++by_other_rival;
-      if (!disputed) continue;
-      if (selected) {
-        ++removed;
-        EXPECT_FALSE(cc.supported) << "seed " << seed << ": " << noiseTermKey(t)
-                                   << " claimed though a close rival does without it";
-        EXPECT_EQ(cc.value, 0.0);
-        EXPECT_EQ(cc.lo68, 0.0);
-        EXPECT_EQ(cc.lo95, 0.0);
-      } else {
-        EXPECT_FALSE(cc.supported);
-        if (!closest_close || !in_rival) continue;
-        ++rival_checked;
-        EXPECT_GE(cc.hi68, f.rival_values[i] * (1 - 1e-9)) << "seed " << seed << " " << noiseTermKey(t);
-        EXPECT_GE(cc.hi95, cc.hi68) << "seed " << seed << " " << noiseTermKey(t);
-      }
-    }
-    (closest_close ? close : far) += 1;
-  }
-  std::printf("closest rival close: %d of 30 records (%d on AIC's side only); %d selected terms removed, %d rival "
-              "terms checked; %d terms made ambiguous by a rival other than the closest\n",
-              close, aic_only, removed, rival_checked, by_other_rival);
-  EXPECT_GT(close, 0);
-  EXPECT_GT(far, 0);
-  EXPECT_GT(removed, 0);
-  EXPECT_GT(rival_checked, 0);
-  EXPECT_GT(aic_only, 0);        // the AIC side admits rivals the score alone would not
-  EXPECT_GT(by_other_rival, 0);  // and rivals other than the closest count
-}
-
-// A rival of the same size (a swap: N + B for N + K) counts within the entry penalty of the term it swaps out, not
-// only within kRivalGap (isCloseRival): between sets of equal size only chi-squared decides, and a term claimed over
-// a swap must have won it by what it must save to enter a nested set. The tactical gyro without the ramp (N 0.1
-// deg/sqrt(h), B 0.8 deg/h, K 0.5 deg/h/sqrt(h); 1 h at 20 Hz, seeds 7901-7960): in every record whose closest rival
-// is a swap trailing by 2 to 4, the term it swaps out is reported as a bound (value 0, interval from 0) and the
-// swapped-in term's interval reaches the rival's value. Before session 17 those terms were claimed (B at its value,
-// or a K far below detection: +330 % to +690 % in 4 of 400 tactical and tactical-ramp records at 200 Hz).
-TEST(NoiseModel, SwapMustBeWonByAnEntrysWorth) {
-  const FitOptions opt;
-  int swaps = 0, checked_out = 0, checked_in = 0;
-  for (uint64_t seed = 7901; seed <= 7960; ++seed) {
-    const FitResult f = fitTacticalHour(0.0, seed, opt);
-    ASSERT_TRUE(f.ok) << f.message;
-    const int sel = selectedTerms(f);
-    const int rival = f.rival_terms;
-    const std::bitset<kNumTerms> sel_set(static_cast<unsigned>(sel)), rival_set(static_cast<unsigned>(rival));
-    if (rival == 0 || rival_set.count() != sel_set.count()) continue;
-    if (!(f.rival_gap >= kRivalGap && f.rival_aic_gap < opt.term_penalty)) continue;
-    ++swaps;
-    EXPECT_TRUE(isCloseRival(sel, rival, f.rival_score_gap, f.rival_aic_gap, opt)) << "seed " << seed;
-    ASSERT_FALSE(f.close_rival_terms.empty()) << "seed " << seed;
-    EXPECT_EQ(f.close_rival_terms.front(), rival) << "seed " << seed;
-    for (int t = 0; t < kNumTerms; ++t) {
-      const size_t i = static_cast<size_t>(t);
-      const bool in_rival = rival_set[i], selected = sel_set[i];
-      if (in_rival == selected) continue;
-      const Coefficient& cc = f.terms_corrected[i];
-      EXPECT_TRUE(f.ambiguous[i]) << "seed " << seed << " " << noiseTermKey(t);
-      EXPECT_FALSE(cc.supported) << "seed " << seed << " " << noiseTermKey(t) << " (gap " << f.rival_gap << ")";
-      if (selected) {
-        ++checked_out;
-        EXPECT_EQ(cc.value, 0.0) << "seed " << seed;
-        EXPECT_EQ(cc.lo68, 0.0) << "seed " << seed;
-      } else {
-        ++checked_in;
-        EXPECT_GE(cc.hi68, f.rival_values[i] * (1 - 1e-9)) << "seed " << seed << " " << noiseTermKey(t);
-      }
-    }
-  }
-  std::printf("swaps trailing by %g to %g: %d of 60 records; %d swapped-out terms reported as bounds, %d swapped-in "
-              "terms checked\n", kRivalGap, opt.term_penalty, swaps, checked_out, checked_in);
-  EXPECT_GE(swaps, 2);  // the rule must have been exercised
-}
-
-// isCloseRival itself, case by case (FitOptions' penalties: 4 per term, 6 for the ramp): within kRivalGap on either
-// scale always; a swap within the swapped-out term's penalty in chi-squared (the AIC gap), strictly below; a ramp
-// swapped out needs 6, not the score gap's 8; a larger rival within the penalty in chi-squared (since session 26).
-TEST(NoiseModel, CloseRivalRuleCaseByCase) {
-  const FitOptions o;
-  const int N = 1 << kAngleRandomWalk, B = 1 << kBiasInstability, K = 1 << kRateRandomWalk, R = 1 << kRateRamp;
-  const int Q = 1 << kQuantization;
-  EXPECT_TRUE(isCloseRival(N | K, N | B, 1.9, 1.9, o));     // within 2
-  EXPECT_TRUE(isCloseRival(N | K, N | B, 3.0, 3.0, o));     // a swap within K's 4
-  EXPECT_FALSE(isCloseRival(N | K, N | B, 4.0, 4.0, o));    // not within: strictly below
-  EXPECT_FALSE(isCloseRival(N | K, N | B, 5.0, 5.0, o));
-  EXPECT_TRUE(isCloseRival(N | R, N | K, 3.5, 5.5, o));     // the ramp swapped out: 6 in chi-squared
-  EXPECT_FALSE(isCloseRival(N | R, N | K, 4.5, 6.5, o));    // score gap 4.5 < 6, but chi-squared 6.5 is not
-  EXPECT_FALSE(isCloseRival(N | K, N | R, 7.5, 5.5, o));    // K swapped out: 4, whatever the ramp costs
-  EXPECT_TRUE(isCloseRival(N | K, N | R, 5.5, 3.5, o));
-  EXPECT_TRUE(isCloseRival(N | K, N | B | R, 5.0, 1.5, o));   // on AIC's side
-  // A larger rival (since session 26): the AIC gap less 2 per extra rival term is the chi-squared difference; the
-  // score gap is that plus the rival's extra penalties (B 4 and R 6 for K's 4: + 6).
-  EXPECT_TRUE(isCloseRival(N | K, N | B | R, 9.9, 5.9, o));   // one more term: chi-squared 3.9 < K's 4
-  EXPECT_FALSE(isCloseRival(N | K, N | B | R, 10.0, 6.0, o));  // 4.0: not within
-  EXPECT_FALSE(isCloseRival(N | B | K, Q | N | B, 5.06, 5.06, o));  // validation's consumer record (seed 24019)
-  FitOptions heavy;
-  heavy.term_penalty = 9.0;  // the limit follows the options' penalty
-  EXPECT_TRUE(isCloseRival(N | K, N | B, 8.0, 8.0, heavy));
-}
-
-// The same rule through the wavelet split (its B, K, R come from the denoised part's fit): a dithered MEMS-like gyro
-// with every term (Q 2 arcsec, N 0.15 deg/sqrt(h), B 2 deg/h, K 3 deg/h/sqrt(h), R 10 deg/h^2; 1 h at 200 Hz;
-// coverage_study's held-out class all5, seed 5), where N+B scores within 2 of the selected N+K. K is reported as a
-// bound, and the split's model curve keeps the fitted K: taking the reported K (0) into the curve made the raw fit
-// miss (chi2/dof ~170) and switched the verdict to the sawtooth fallback for a dithered sensor.
-TEST(NoiseModel, CloseRivalInTheWaveletSplitKeepsItsModelCurve) {
-  const double deg = M_PI / 180.0;
-  AxisNoise a;
-  a.quantization = 2.0 * deg / 3600.0;
-  a.dither = true;
-  a.angle_random_walk = 0.15 * deg / 60.0;
-  a.bias_instability = 2.0 * deg / 3600.0;
-  a.rate_random_walk = 3.0 * deg / 3600.0 / 60.0;
-  a.rate_ramp = 10.0 * deg / 3600.0 / 3600.0;
-  const std::vector<double> y = simulateAxis(a, 200.0, 720000, 13766864119334436869ULL, 0);
-  const AxisAnalysis r = analyzeAxis("x", {y}, 1.0 / 200.0, AnalysisOptions{});
-  ASSERT_EQ(r.method, "wavelet_split");
-  const FitResult& f = answerFit(r);
-  ASSERT_LT(f.rival_gap, kRivalGap);
-  const std::array<bool, kNumTerms> amb = answerAmbiguous(r);
-  EXPECT_FALSE(amb[kQuantization]);
-  EXPECT_FALSE(amb[kAngleRandomWalk]);
-  int n_amb = 0;
-  for (int t = kBiasInstability; t < kNumTerms; ++t) {
-    const size_t i = static_cast<size_t>(t);
-    n_amb += amb[i];
-    if (r.coefficients[i].supported) {
-      for (int rt : f.close_rival_terms)
-        EXPECT_TRUE((rt >> t) & 1) << noiseTermKey(t) << " claimed though a close rival does without it";
-    }
-  }
-  EXPECT_GT(n_amb, 0);
-  for (const std::string& n : r.notes) EXPECT_EQ(n.find("non-white"), std::string::npos) << n;
-  EXPECT_LT(r.final_error.chi2_dof, quality_limits::kDoubtfulChi2Dof);
-  EXPECT_NE(r.quality.quality, Quality::Bad);
-}
-
-// A rate random walk far below detection chosen over a flicker and a ramp (coverage_study's held-out class kr_big: N
-// 0.15 deg/sqrt(h), B 1 deg/h, K 6 deg/h/sqrt(h), R 40 deg/h^2, 2 h at 100 Hz; seed 31466): the search selects N + K,
-// and N + B + R trails by 5.0 on AIC, 3.0 in chi-squared, within K's entry penalty. K is a bound, not the +56 % value
-// (68 % interval 1.18-2.03 times the truth) reported before session 26; its upper end still holds the truth.
-TEST(NoiseModel, RandomWalkChosenOverALargerRivalWithinItsEntryIsABound) {
-  const double deg = M_PI / 180.0;
-  AxisNoise a;
-  a.angle_random_walk = 0.15 * deg / 60.0;
-  a.bias_instability = 1.0 * deg / 3600.0;
-  a.rate_random_walk = 6.0 * deg / 3600.0 / 60.0;
-  a.rate_ramp = 40.0 * deg / 3600.0 / 3600.0;
-  const std::vector<double> y = simulateAxis(a, 100.0, 720000, 6140114452139244266ULL, 0);
-  const AxisAnalysis r = analyzeAxis("x", {y}, 1.0 / 100.0, AnalysisOptions{});
-  const FitResult& f = answerFit(r);
-  ASSERT_EQ(f.rival_terms, (1 << kAngleRandomWalk) | (1 << kBiasInstability) | (1 << kRateRamp));
-  ASSERT_GT(f.rival_aic_gap, kRivalGap);  // not close by kRivalGap alone
-  ASSERT_LT(f.rival_aic_gap - 2.0, FitOptions{}.term_penalty);  // but within K's entry in chi-squared
-  ASSERT_FALSE(f.close_rival_terms.empty());
-  EXPECT_EQ(f.close_rival_terms.front(), f.rival_terms);
-  const std::array<bool, kNumTerms> amb = answerAmbiguous(r);
-  EXPECT_TRUE(amb[kRateRandomWalk]);
-  const Coefficient& k = r.coefficients[kRateRandomWalk];
-  EXPECT_FALSE(k.supported);
-  EXPECT_GE(k.hi68, a.rate_random_walk);
-  EXPECT_TRUE(r.coefficients[kAngleRandomWalk].supported);
-}
-
-// FitOptions::intervals off (the model check's trial fits, the first pass of a reweighted fit) must change nothing
-// but the selective intervals: the same selection, values, statistics, rival and model curve, a selected term's
-// sigma from the same covariance, and NaN (not a plausible number) where the intervals were left out.
+// FitOptions::intervals off (the model check's trial fits) changes nothing but the intervals: the same values,
+// statistics and model curve, and NaN (not a plausible number) where the intervals were left out.
 TEST(NoiseModel, ValuesOnlyFitHasTheSameValuesAndNoIntervals) {
   AxisNoise a;
   a.angle_random_walk = 2e-4;
   a.bias_instability = 2e-5;
-  a.rate_random_walk = 3e-7;  // near detection at 30 min: dropped on some seeds
+  a.rate_random_walk = 3e-7;
   for (uint64_t seed : {3u, 4u, 5u}) {
     const std::vector<double> y = simulateAxis(a, 200.0, 360000, seed);
-    DeviationOptions dopt;
-    const DeviationCurve c = computeDeviation("oadev", y, InputKind::Rate, 1.0 / 200.0, dopt);
+    const DeviationCurve c = computeDeviation("oadev", y, InputKind::Rate, 1.0 / 200.0, DeviationOptions{});
     FitOptions with, without;
     without.intervals = false;
     const FitResult f = fitNoiseModel(c, with), g = fitNoiseModel(c, without);
@@ -447,87 +214,88 @@ TEST(NoiseModel, ValuesOnlyFitHasTheSameValuesAndNoIntervals) {
     EXPECT_EQ(f.chi2, g.chi2);
     EXPECT_EQ(f.rms_log10, g.rms_log10);
     EXPECT_EQ(f.evidence, g.evidence);
-    EXPECT_EQ(f.rival_terms, g.rival_terms);
-    int dropped = 0;
     for (int t = 0; t < kNumTerms; ++t) {
       SCOPED_TRACE(std::string(noiseTermKey(t)) + " seed " + std::to_string(seed));
-      EXPECT_EQ(f.terms[t].supported, g.terms[t].supported);
       EXPECT_EQ(f.terms[t].value, g.terms[t].value);
-      if (f.terms[t].supported) {
-        EXPECT_EQ(f.terms[t].sigma, g.terms[t].sigma);
-      } else {
-        ++dropped;
-        EXPECT_TRUE(std::isnan(g.terms[t].hi68));
-        EXPECT_TRUE(std::isfinite(f.terms[t].hi68));
-      }
+      EXPECT_TRUE(std::isnan(g.terms[t].hi68));
+      EXPECT_TRUE(std::isfinite(f.terms[t].hi68));
     }
-    EXPECT_GE(dropped, 1);  // Q (absent) at least: the skipped part is exercised
   }
 }
 
-// The selected rate random walk cases below: N 0.15 deg/sqrt(h), K 20 deg/h/sqrt(h) and a flicker of b deg/h whose
-// B column is added (b > 0) or taken away (b < 0); the expected Allan variance of 2 h at 100 Hz, no noise, with the
-// term counts the GLS covariance is built from.
 namespace {
-constexpr double kCaseK = 20.0 * M_PI / 180.0 / 3600 / 60;
-FitResult fitRandomWalkCase(double b_deg_h) {
-  const double deg = M_PI / 180.0, b = b_deg_h * deg / 3600;
-  const std::array<double, kNumTerms> truth{{0.0, 0.15 * deg / 60, 0.0, kCaseK, 0.0}};
-  DeviationCurve c = modelCurve(truth, 0.01, 720001, 10.0);
-  for (auto& p : c.points) {
-    p.var += (b_deg_h < 0 ? -1.0 : 1.0) * b * b * noiseTermBasis(kBiasInstability, p.tau, c.tau0);
-    EXPECT_GT(p.var, 0.0);
-    p.dev = std::sqrt(p.var);
-    p.n_terms = c.n_phase - 2 * p.m;
+// MEMS-like axes with the coefficients (N 2e-4 rad/sqrt(s), B 2e-5 rad/s, K 2e-6 rad/s/sqrt(s)), 30 min at
+// 100 Hz (the bundled demo's gyro), several seeds: the records on which selecting terms at the full model's
+// covariance reported N alone while the data rose 4-11x above that model at the longest taus.
+std::vector<DeviationCurve> demoLikeCurves(int n) {
+  AxisNoise a;
+  a.angle_random_walk = 2e-4;
+  a.bias_instability = 2e-5;
+  a.rate_random_walk = 2e-6;
+  std::vector<DeviationCurve> out;
+  for (int s = 0; s < n; ++s) {
+    const std::vector<double> y = simulateAxis(a, 100.0, 180000, 900 + static_cast<uint64_t>(s), 0);
+    out.push_back(computeDeviation("oadev", y, InputKind::Rate, 0.01, DeviationOptions{}));
   }
-  return fitNoiseModel(c);
-}
-
-// The cases' preconditions: a GLS fit with B dropped and K selected.
-void assertKSelectedBDropped(const FitResult& f) {
-  ASSERT_TRUE(f.ok) << f.message;
-  ASSERT_TRUE(f.gls);
-  ASSERT_FALSE(f.terms[kBiasInstability].supported) << "the case needs B dropped";
-  ASSERT_TRUE(f.terms[kRateRandomWalk].supported);
-}
-
-// The answer's K: supported, within 1 % of the truth, inside its 68 % interval.
-void expectAnsweredKAtTruth(const FitResult& f) {
-  const Coefficient& k = f.terms_corrected[kRateRandomWalk];
-  ASSERT_TRUE(k.supported);
-  EXPECT_NEAR(k.value / kCaseK, 1.0, 0.01);
-  EXPECT_LE(k.lo68, kCaseK);
-  EXPECT_GE(k.hi68, kCaseK);
+  return out;
 }
 }  // namespace
 
-// A selected rate random walk beside a flicker too weak to be selected (B 1 deg/h): the selected set {N, K} has no
-// column for B's floor, so its least-squares K takes up B's share at long tau (+9.7 %). The reported K is estimated
-// with the columns its sd comes from (the selected terms and those the full model holds, B among them), so it is the
-// truth up to the small selection correction (-0.3 %). Before session 23 the reported K was the selected set's
-// (+9.7 %); on records this was part of the supported K's bias (docs/calibration.md, "Session 23").
-TEST(NoiseModel, SelectedRandomWalkIsNotRaisedByADroppedFlicker) {
-  const FitResult f = fitRandomWalkCase(1.0);
-  ASSERT_NO_FATAL_FAILURE(assertKSelectedBDropped(f));
-  EXPECT_GT(f.terms[kRateRandomWalk].value / kCaseK, 1.05) << "the selected set's K takes up B";
-  expectAnsweredKAtTruth(f);
+// The reported coefficients are the model: model_var is the IEEE curve of the reported values at every point; each
+// value lies inside its own 68 % and 95 % intervals; "supported" is exactly "the 95 % interval excludes 0".
+TEST(NoiseModel, ReportedValuesAreTheModelAndLieInsideTheirIntervals) {
+  for (const DeviationCurve& c : demoLikeCurves(6)) {
+    const FitResult f = fitNoiseModel(c);
+    ASSERT_TRUE(f.ok && f.gls) << f.message;
+    for (size_t i = 0; i < c.points.size(); ++i) {
+      double v = 0;
+      for (int t = 0; t < kNumTerms; ++t) v += termVariance(f, t, c.points[i].tau);
+      EXPECT_NEAR(f.model_var[i] / v, 1.0, 1e-9) << "tau " << c.points[i].tau;
+    }
+    for (int t = 0; t < kNumTerms; ++t) {
+      const Coefficient& k = f.terms[static_cast<size_t>(t)];
+      SCOPED_TRACE(noiseTermKey(t));
+      EXPECT_LE(k.lo68, k.value * (1 + 1e-9));
+      EXPECT_GE(k.hi68, k.value * (1 - 1e-9));
+      EXPECT_LE(k.lo95, k.lo68 * (1 + 1e-9));
+      EXPECT_GE(k.hi95, k.hi68 * (1 - 1e-9));
+      EXPECT_EQ(k.supported, k.lo95 > 0);
+    }
+  }
 }
 
-// The same where the full model clipped B to 0 (since session 25): less 1 deg/h's worth of B's column (a record
-// whose flicker floor came out low). With B at 0 the full model's K takes up the deficit, and B is then not among the
-// columns the selected K's estimate came from; with B's column free the estimate is the truth.
-TEST(NoiseModel, SelectedRandomWalkIgnoresAFlickerDeficitTheFullModelClipped) {
-  const FitResult f = fitRandomWalkCase(-1.0);
-  ASSERT_NO_FATAL_FAILURE(assertKSelectedBDropped(f));
-  EXPECT_LT(f.terms[kRateRandomWalk].value / kCaseK, 0.98) << "the selected set's K takes up the deficit";
-  expectAnsweredKAtTruth(f);
+// The long-tau rise is never dropped: on the demo-like records the reported model's ADEV follows the true one within
+// 25 % over tau in [10/fs, T/10] (the done-when figure) on at least 5 of 6 records, and within 50 % on all,
+// where an N-only answer is off by a factor 2.3 at T/10.
+TEST(NoiseModel, ModelFollowsTheLongTauRise) {
+  const double n = 2e-4, b = 2e-5, k = 2e-6;
+  int within25 = 0, records = 0;
+  for (const DeviationCurve& c : demoLikeCurves(6)) {
+    const FitResult f = fitNoiseModel(c);
+    ASSERT_TRUE(f.ok) << f.message;
+    double worst = 0;
+    for (double tau = 0.1; tau <= 180.0; tau *= 1.1) {
+      const double truth = n * n / tau + 2 * std::log(2.0) / M_PI * b * b + k * k * tau / 3;
+      double model = 0;
+      for (int t = 0; t < kNumTerms; ++t) model += termVariance(f, t, tau);
+      worst = std::max(worst, std::fabs(std::sqrt(model / truth) - 1.0));
+    }
+    std::printf("record %d: worst ADEV error %.1f %%\n", records, 100 * worst);
+    EXPECT_LT(worst, 0.5);
+    within25 += worst <= 0.25;
+    ++records;
+  }
+  EXPECT_GE(within25, 5);
 }
 
-// And where the record has no flicker at all (the full model's B is 0 there too): B's column, free beside the
-// selected K, must not widen K's sd until its selection correction pulls K down (what the ramp's column did in
-// session 23's every-column variant).
-TEST(NoiseModel, SelectedRandomWalkWithoutAFlickerKeepsItsValue) {
-  const FitResult f = fitRandomWalkCase(0.0);
-  ASSERT_NO_FATAL_FAILURE(assertKSelectedBDropped(f));
-  expectAnsweredKAtTruth(f);
+// The correlation of the free estimates is published for every pair of enabled terms: symmetric, unit diagonal, and
+// B/K strongly negative on these records (the two trade over the longest taus).
+TEST(NoiseModel, PublishesTheCorrelationOfTheTerms) {
+  const FitResult f = fitNoiseModel(demoLikeCurves(1)[0]);
+  ASSERT_TRUE(f.ok);
+  for (int i = 0; i < kNumTerms; ++i) {
+    EXPECT_NEAR(f.correlation[i][i], 1.0, 1e-9);
+    for (int j = 0; j < kNumTerms; ++j) EXPECT_NEAR(f.correlation[i][j], f.correlation[j][i], 1e-9);
+  }
+  EXPECT_LT(f.correlation[kBiasInstability][kRateRandomWalk], -0.5);
 }

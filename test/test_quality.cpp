@@ -17,18 +17,23 @@ namespace {
 bool has(const std::string& s, const std::string& what) { return s.find(what) != std::string::npos; }
 
 /// A hand-made analysis whose joint fit answered: N supported, the given fit error.
-AxisAnalysis handMade(double rms_log10, double chi2_dof) {
+/// An axis answered by a fit whose model misses the tightest points by up to `worst_ratio` in ADEV, with the given
+/// chi2/dof and, for a GLS fit, its p-value (NaN: an EDF-weighted fit without one).
+AxisAnalysis handMade(double worst_ratio, double chi2_dof, double chi2_p = std::nan("")) {
   AxisAnalysis a;
   a.axis = "x";
   a.samples = 100000;
   a.method = "joint_fit";
   a.fit.ok = true;
   a.fit.terms[kAngleRandomWalk] = {2e-4, 1e-6, true};
-  a.fit.rms_log10 = rms_log10;
+  a.fit.rms_log10 = 0.5 * std::log10(worst_ratio);
+  a.fit.worst_adev_ratio = worst_ratio;
   a.fit.chi2_dof = chi2_dof;
+  a.fit.gls = std::isfinite(chi2_p);
+  a.fit.chi2_p = chi2_p;
   a.fit.n_rms = 12;
   a.coefficients = a.fit.terms;
-  a.final_error = {rms_log10, chi2_dof, 12};
+  a.final_error = fitErrorOf(a.fit);
   return a;
 }
 
@@ -55,29 +60,28 @@ TEST(Quality, CleanSimulatedRecordIsGood) {
   const std::vector<std::vector<double>> seg{simulateAxis(n, 100, 180000, 2026)};
   const AxisAnalysis a = analyzeAxis("x", seg, 0.01, AnalysisOptions());
   EXPECT_EQ(a.quality.quality, Quality::Good) << a.quality.reason;
-  EXPECT_TRUE(has(a.quality.reason, "rms_log10")) << a.quality.reason;
+  EXPECT_TRUE(has(a.quality.reason, "the data accept the model")) << a.quality.reason;
   EXPECT_STREQ(qualityName(a.quality.quality), "good");
 }
 
 TEST(Quality, GrossErrorsAreBadWithTheNumbers) {
-  const QualityVerdict v = assessQuality(handMade(0.3, 2.0));
-  EXPECT_EQ(v.quality, Quality::Bad);
-  EXPECT_TRUE(has(v.reason, "0.300")) << v.reason;  // the rms_log10
-  EXPECT_TRUE(has(v.reason, "x2.00")) << v.reason;  // 10^0.3: the model is off by a factor 2 in ADEV
+  const QualityVerdict v = assessQuality(handMade(2.5, 2.0, 0.2));
+  EXPECT_EQ(v.quality, Quality::Bad);  // off by more than x2 at a tight point, whatever the chi-squared says
+  EXPECT_TRUE(has(v.reason, "x2.50")) << v.reason;
   EXPECT_STREQ(qualityName(v.quality), "bad");
 
-  const QualityVerdict c = assessQuality(handMade(0.02, 400.0));
+  const QualityVerdict c = assessQuality(handMade(1.05, 400.0));
   EXPECT_EQ(c.quality, Quality::Bad);
   EXPECT_TRUE(has(c.reason, "chi2/dof 400")) << c.reason;
 
-  AxisAnalysis failed = handMade(0.01, 1.0);
+  AxisAnalysis failed = handMade(1.05, 1.0);
   failed.fit.ok = false;
   failed.fit.message = "too few points";
   const QualityVerdict f = assessQuality(failed);
   EXPECT_EQ(f.quality, Quality::Bad);
   EXPECT_TRUE(has(f.reason, "too few points")) << f.reason;
 
-  AxisAnalysis none = handMade(0.01, 1.0);
+  AxisAnalysis none = handMade(1.05, 1.0);
   for (auto& t : none.coefficients) t = {0, 1e-5, false};
   const QualityVerdict u = assessQuality(none);
   EXPECT_EQ(u.quality, Quality::Bad);
@@ -87,7 +91,7 @@ TEST(Quality, GrossErrorsAreBadWithTheNumbers) {
   EXPECT_EQ(assessQuality(nan).quality, Quality::Bad);
 
   // wavelet_split answered but failed: bad, whatever the joint fit says.
-  AxisAnalysis split = handMade(0.01, 1.0);
+  AxisAnalysis split = handMade(1.05, 1.0);
   split.method = "wavelet_split";
   split.has_split = true;
   split.split.ok = false;
@@ -96,18 +100,22 @@ TEST(Quality, GrossErrorsAreBadWithTheNumbers) {
 }
 
 TEST(Quality, ModerateErrorsAndWarningSignsAreDoubtful) {
-  const QualityVerdict r = assessQuality(handMade(0.08, 1.0));
-  EXPECT_EQ(r.quality, Quality::Doubtful);
-  EXPECT_TRUE(has(r.reason, "0.080")) << r.reason;
-  EXPECT_EQ(assessQuality(handMade(0.01, 8.0)).quality, Quality::Doubtful);
+  const QualityVerdict r = assessQuality(handMade(1.7, 1.0, 0.5));
+  EXPECT_EQ(r.quality, Quality::Doubtful);  // off by more than x1.5 at a tight point
+  EXPECT_TRUE(has(r.reason, "x1.70")) << r.reason;
+  const QualityVerdict p = assessQuality(handMade(1.05, 2.0, 0.001));
+  EXPECT_EQ(p.quality, Quality::Doubtful);  // the chi-squared test rejects the model
+  EXPECT_TRUE(has(p.reason, "p = 0.001")) << p.reason;
+  EXPECT_EQ(assessQuality(handMade(1.05, 2.0, 0.3)).quality, Quality::Good);
+  EXPECT_EQ(assessQuality(handMade(1.05, 8.0)).quality, Quality::Doubtful);  // EDF fit: chi2/dof > 5
 
-  AxisAnalysis cut = handMade(0.01, 1.0);
+  AxisAnalysis cut = handMade(1.05, 1.0);
   cut.notes.push_back(std::string(kStaticStretchNote) + ", 10.0-400.0 s");
   const QualityVerdict c = assessQuality(cut);
   EXPECT_EQ(c.quality, Quality::Doubtful);
   EXPECT_TRUE(has(c.reason, "static stretch")) << c.reason;
 
-  AxisAnalysis spikes = handMade(0.01, 1.0);
+  AxisAnalysis spikes = handMade(1.05, 1.0);
   spikes.spikes_checked = true;
   spikes.spikes.count = 500;  // 0.5 % of 100000
   const QualityVerdict s = assessQuality(spikes);
@@ -116,7 +124,7 @@ TEST(Quality, ModerateErrorsAndWarningSignsAreDoubtful) {
   spikes.spikes.count = 20;  // 0.02 %: fine
   EXPECT_EQ(assessQuality(spikes).quality, Quality::Good);
 
-  AxisAnalysis methods = handMade(0.01, 1.0);
+  AxisAnalysis methods = handMade(1.05, 1.0);
   methods.has_split = true;
   methods.split.ok = true;
   methods.split.terms[kAngleRandomWalk] = {9e-4, 1e-5, true};  // x4.5 the joint fit's 2e-4
@@ -160,11 +168,11 @@ TEST(Quality, ModerateErrorsAndWarningSignsAreDoubtful) {
 }
 
 TEST(Quality, FitResultOverloadAppliesTheSameRule) {
-  const AxisAnalysis a = handMade(0.3, 2.0);
+  const AxisAnalysis a = handMade(2.5, 2.0);
   const QualityVerdict v = assessQuality(a.fit);
   EXPECT_EQ(v.quality, Quality::Bad);
   EXPECT_EQ(v.reason, assessQuality(a).reason);
-  FitResult good = handMade(0.02, 1.5).fit;
+  FitResult good = handMade(1.1, 1.5).fit;
   EXPECT_EQ(assessQuality(good).quality, Quality::Good);
   QualityContext ctx;
   ctx.static_stretch = true;
@@ -206,23 +214,6 @@ TEST(Quality, SawtoothAnswerIsNotDoubtedByAMisfittingJointFit) {
   }
   std::printf("sawtooth at 10 deg/h: %d of 4 axes good, %d checked against the model check's fit\n", good, checked);
   EXPECT_GE(checked, 1) << "the model check's branch was not exercised";
-}
-
-// answerWidened follows the fit behind the answer: for the split its denoised fit's B, K, R (their corrected answer
-// is what it reports since session 16), never its Q and N (the split's own estimators).
-TEST(Quality, AnswerWidenedFollowsTheSplitsFit) {
-  AxisAnalysis a;
-  a.method = "wavelet_split";
-  a.split.denoised_fit.widened[kBiasInstability] = true;
-  a.split.denoised_fit.widened[kAngleRandomWalk] = true;
-  std::array<bool, kNumTerms> w = answerWidened(a);
-  EXPECT_TRUE(w[kBiasInstability]);
-  EXPECT_FALSE(w[kAngleRandomWalk]);
-  a.method = "joint_fit";
-  w = answerWidened(a);
-  EXPECT_FALSE(w[kBiasInstability]);
-  a.fit.widened[kBiasInstability] = true;
-  EXPECT_TRUE(answerWidened(a)[kBiasInstability]);
 }
 
 // An undithered pulse counter at 0 deg/h for 10 min (Q = 0.35 arcsec, N = 0.002 deg/sqrt(h), 100 Hz): the angle

@@ -31,8 +31,8 @@ struct KalibrValue {
   std::string axis;
   bool present = false;  ///< false: no data for this sensor (e.g. CSV input has no accelerometer)
   /// The same rule with each unsupported axis's 95 % upper end (Coefficient::hi95) in place of its 68 % one; written
-  /// beside a bound. A dropped term's 68 % upper end lies below a third of the truth in ~1 % of simulated records
-  /// with a rate random walk (a downward fluctuation; docs/calibration.md, "Session 18"), its 95 % one in none.
+  /// beside a bound: a 68 % upper end lies below the truth in about a sixth of records by construction, a 95 % one
+  /// in about 2.5 %.
   /// Not finite when an axis has no finite 95 % upper end (+inf on a bad fit, NaN without intervals); the comment
   /// then omits it.
   double value95 = 0;

@@ -20,15 +20,18 @@ struct QualityVerdict {
   std::string reason;  ///< one short sentence naming the numbers that decided
 };
 
-/// The thresholds of the verdict, all in one place. Initial values (to be recalibrated on simulated and real
-/// records): rms_log10 is the RMS of log10(measured / model ADEV), so 0.15 is a model off by a factor 10^0.15 = 1.41
-/// (41 %) in ADEV at a typical point and 0.05 one off by 12 %; chi2_dof is the EDF-weighted chi-squared per degree of
-/// freedom of the AVAR residual (1 for a model that fits within the points' own scatter).
+/// The thresholds of the verdict, all in one place. The verdict judges the curve of the reported coefficients:
+/// chi2 of its AVAR residual at the model's own covariance (GLS fits give its p-value), and worst_adev_ratio, the
+/// largest factor between the model's and the measured ADEV at points with >= kTightEdf degrees of freedom (an ADEV
+/// estimate there has a relative sd <= 16 %, so x1.5 is > 3 sd). Measured false-alarm rate and power: docs/quality.md.
+/// rms_log10 (RMS of log10(measured / model ADEV)) is descriptive; the method switches use notBad().
 namespace quality_limits {
-constexpr double kBadRmsLog10 = 0.15;            ///< bad above: gross misfit (ADEV off by > 41 % somewhere typical)
+constexpr double kBadAdevRatio = 2.0;            ///< bad above: the model misses a tight point by more than x2
+constexpr double kDoubtfulAdevRatio = 1.5;       ///< doubtful above: ... by more than x1.5
 constexpr double kBadChi2Dof = 50.0;             ///< bad above
-constexpr double kDoubtfulRmsLog10 = 0.05;       ///< doubtful above (ADEV off by > 12 %)
-constexpr double kDoubtfulChi2Dof = 5.0;         ///< doubtful above
+constexpr double kDoubtfulP = 0.01;              ///< doubtful below: the chi2 test rejects the model (GLS fits)
+constexpr double kDoubtfulChi2Dof = 5.0;         ///< doubtful above, for fits without a p-value (EDF-weighted chi2)
+constexpr double kBadRmsLog10 = 0.15;            ///< notBad(): a method's fit is usable (ADEV off by < 41 % typically)
 constexpr double kDoubtfulSpikeFraction = 1e-3;  ///< doubtful when more than this fraction of samples were spikes
 constexpr double kDoubtfulMethodRatio = 2.0;     ///< doubtful when joint_fit's and wavelet_split's N differ by more
 
@@ -55,10 +58,10 @@ struct QualityContext {
 
 /// The verdict of one analysed axis: from final_error (the error of the chosen method's model), the coefficients,
 /// whether the chosen method succeeded, the spikes, the notes (static stretch) and joint_fit vs wavelet_split N.
-/// bad: the fit failed, no coefficient is supported, rms_log10 > kBadRmsLog10 or chi2_dof > kBadChi2Dof (or either
-/// not finite); doubtful: rms_log10 > kDoubtfulRmsLog10, chi2_dof > kDoubtfulChi2Dof, the record was cut to a static
-/// stretch, spikes above kDoubtfulSpikeFraction of the samples, or the two methods' N differ by more than
-/// kDoubtfulMethodRatio; good otherwise.
+/// bad: the fit failed, no coefficient is supported, worst_adev_ratio > kBadAdevRatio or chi2_dof > kBadChi2Dof (or
+/// either not finite); doubtful: worst_adev_ratio > kDoubtfulAdevRatio, chi2_p < kDoubtfulP (chi2_dof >
+/// kDoubtfulChi2Dof without a p-value), the record was cut to a static stretch, spikes above kDoubtfulSpikeFraction of
+/// the samples, or the two methods' N differ by more than kDoubtfulMethodRatio; good otherwise.
 QualityVerdict assessQuality(const AxisAnalysis& a);
 
 /// A bad verdict means the model does not describe the record, so no interval computed under it can be trusted: the

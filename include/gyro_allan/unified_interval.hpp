@@ -18,6 +18,8 @@ struct VarianceModel {
   double skewAt(double mu) const;
   /// log of the density of X at x when the true value is mu.
   double logDensity(double x, double mu) const;
+  /// P(X <= x) when the true value is mu.
+  double cdf(double x, double mu) const;
   /// Through three (mu, variance) points (distinct mu); negative curvature or a non-positive minimum on [0, inf)
   /// falls back to the straight line through the outer points, then to the largest variance.
   static VarianceModel through(const double mu[3], const double var[3]);
@@ -28,7 +30,8 @@ struct VarianceModel {
 /// construction whose acceptance region for each mu holds the values of X with the highest likelihood ratio
 /// f(X | mu) / f(X | best mu >= 0). It holds the truth at its stated rate for every mu >= 0, also at and near 0,
 /// is never empty, turns from an upper bound [0, hi] into a two-sided interval as x rises above its noise, and always
-/// holds max(x, 0), the constrained estimate. The grid's resolution is ~1/140 of the range searched.
+/// holds max(x, 0), the constrained estimate. The grid's resolution is ~1/140 of the range searched, which reaches
+/// where x has probability 1e-4 below it.
 void unifiedInterval(double x, const VarianceModel& v, double confidence, double* lo, double* hi);
 
 }  // namespace gyro_allan

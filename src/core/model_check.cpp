@@ -29,7 +29,7 @@ std::string fmt(const char* f, double a) {
 int countParams(const FitResult& f) {
   int k = 0;
   for (const auto& t : f.terms)
-    if (t.supported && t.value > 0) ++k;
+    if (t.value > 0) ++k;
   for (double c : f.extra_c)
     if (c > 0) ++k;
   return k;
@@ -481,7 +481,7 @@ ResidualAnalysis analyzeResidual(const DeviationCurve& curve, const FitResult& f
   if (n < 4) return ra;
   std::array<double, 5> sq{{0, 0, 0, 0, 0}};
   for (int t = 0; t < kNumTerms; ++t)
-    if (fit.terms[t].supported && fit.terms[t].value > 0) sq[t] = fit.terms[t].value * fit.terms[t].value;
+    if (fit.terms[t].value > 0) sq[t] = fit.terms[t].value * fit.terms[t].value;
   Eigen::MatrixXd cov;
   try {
     cov = avarCovariance(*sharedAvarCovarianceBasis(ms, ns, curve.tau0), sq);  // the fit's own basis (kept)

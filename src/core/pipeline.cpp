@@ -430,8 +430,8 @@ struct PipelineRun {
       }
     });
     // After every split but the last: on 2 threads the accelerometer then overlaps the last gyro axis's split and
-    // check (an earlier axis's check may still hold its samples with more threads). It waited for the last check too
-    // until session 12; then the three accelerometer axes ran after everything else, one of them alone on 2 cores.
+    // check (an earlier axis's check may still hold its samples with more threads). Waiting for the last check too
+    // would run the three accelerometer axes after everything else, one of them alone on 2 cores.
     std::vector<size_t> after;
     if (split_tasks.size() > 1) after.push_back(split_tasks[split_tasks.size() - 2]);
     deps.push_back(after);

@@ -1,5 +1,5 @@
-// Quality verdict of an axis's answer: gross misfit or nothing supported -> bad, moderate misfit or warning signs ->
-// doubtful, else good; the reason names the numbers.
+// Quality verdict of an axis's answer: an adequacy test of the reported model's curve against the Allan curve (chi2
+// at the model's own covariance, the worst ADEV ratio at tight points) and warning signs; the reason names the numbers.
 #include "gyro_allan/quality.hpp"
 
 #include <cmath>
@@ -36,9 +36,10 @@ std::string join(const std::vector<std::string>& parts) {
   return s;
 }
 
-/// The shared rule. `ok`/`failure`: whether the answering method succeeded and why not; `n_rms`: points in rms_log10.
+/// The shared rule. `ok`/`failure`: whether the answering method succeeded and why not; `e`: the error figures of
+/// the curve of the reported coefficients.
 QualityVerdict judge(bool ok, const std::string& failure, const std::array<Coefficient, kNumTerms>& terms,
-                     double rms_log10, double chi2_dof, int n_rms, const QualityContext& ctx) {
+                     const FitError& e, const QualityContext& ctx) {
   using namespace quality_limits;
   QualityVerdict v;
   if (!ok) {
@@ -50,26 +51,27 @@ QualityVerdict judge(bool ok, const std::string& failure, const std::array<Coeff
   bool any_supported = false;
   for (const auto& c : terms) any_supported = any_supported || c.supported;
   if (!any_supported) bad.push_back("no noise term is supported by the data (every coefficient is only a bound)");
-  if (!std::isfinite(rms_log10) || !std::isfinite(chi2_dof))
-    bad.push_back("the fit error is not finite (rms_log10 " + fmt("%g", rms_log10) + ", chi2/dof " + fmt("%g", chi2_dof) + ")");
+  if (!std::isfinite(e.chi2_dof) || !std::isfinite(e.worst_adev_ratio))
+    bad.push_back("the fit error is not finite (chi2/dof " + fmt("%g", e.chi2_dof) + ", worst ADEV ratio " +
+                  fmt("%g", e.worst_adev_ratio) + ")");
   else {
-    if (rms_log10 > kBadRmsLog10)
-      bad.push_back(fmt("the model is off by x%.2f in ADEV (rms_log10 %.3f > %.2f)", std::pow(10.0, rms_log10),
-                        rms_log10, kBadRmsLog10));
-    else if (rms_log10 > kDoubtfulRmsLog10)
-      doubtful.push_back(fmt("the model is off by x%.2f in ADEV (rms_log10 %.3f > %.2f)", std::pow(10.0, rms_log10),
-                             rms_log10, kDoubtfulRmsLog10));
-    if (chi2_dof > kBadChi2Dof)
-      bad.push_back(fmt("chi2/dof %.3g > %.3g", chi2_dof, kBadChi2Dof));
-    else if (chi2_dof > kDoubtfulChi2Dof)
-      doubtful.push_back(fmt("chi2/dof %.3g > %.3g", chi2_dof, kDoubtfulChi2Dof));
+    const std::string off = fmt("the model's ADEV is off by x%.2f at a point whose estimate is tight (>= %.0f "
+                                "degrees of freedom)", e.worst_adev_ratio, kTightEdf);
+    if (e.worst_adev_ratio > kBadAdevRatio) bad.push_back(off + fmt(" > x%.2f", kBadAdevRatio));
+    else if (e.worst_adev_ratio > kDoubtfulAdevRatio) doubtful.push_back(off + fmt(" > x%.2f", kDoubtfulAdevRatio));
+    if (e.chi2_dof > kBadChi2Dof) bad.push_back(fmt("chi2/dof %.3g > %.3g", e.chi2_dof, kBadChi2Dof));
+    else if (std::isfinite(e.chi2_p) ? e.chi2_p < kDoubtfulP : e.chi2_dof > kDoubtfulChi2Dof)
+      doubtful.push_back(std::isfinite(e.chi2_p)
+                             ? fmt("the data reject the model: chi2/dof %.3g, p = %.2g < %.2g", e.chi2_dof, e.chi2_p,
+                                   kDoubtfulP)
+                             : fmt("chi2/dof %.3g > %.3g", e.chi2_dof, kDoubtfulChi2Dof));
   }
   if (!bad.empty()) {
     v.quality = Quality::Bad;
     v.reason = join(bad);
     return v;
   }
-  if (n_rms <= 0) doubtful.push_back("no tau point has enough degrees of freedom for rms_log10");
+  if (e.n_rms <= 0) doubtful.push_back("no tau point has enough degrees of freedom for rms_log10");
   if (ctx.static_stretch) doubtful.push_back("the sensor moved: only the longest static stretch was analysed");
   if (ctx.samples > 0 && ctx.spikes > 0) {
     const double f = static_cast<double>(ctx.spikes) / static_cast<double>(ctx.samples);
@@ -99,8 +101,9 @@ QualityVerdict judge(bool ok, const std::string& failure, const std::array<Coeff
     return v;
   }
   v.quality = Quality::Good;
-  v.reason = fmt("fit error rms_log10 %.3f <= %.2f, chi2/dof %.3g <= %.3g", rms_log10, kDoubtfulRmsLog10, chi2_dof,
-                 kDoubtfulChi2Dof) + ctx.remark;
+  v.reason = (std::isfinite(e.chi2_p) ? fmt("the data accept the model (chi2/dof %.3g, p = %.2g)", e.chi2_dof, e.chi2_p)
+                                       : fmt("chi2/dof %.3g <= %.3g", e.chi2_dof, kDoubtfulChi2Dof)) +
+             fmt(", its ADEV within x%.2f of every tight point", e.worst_adev_ratio) + ctx.remark;
   return v;
 }
 
@@ -114,11 +117,11 @@ QualityVerdict assessQuality(const AxisAnalysis& a) {
   const bool split_ok = a.has_split && a.split.ok;
   // The joint fit's N held against the split's answer is that of a joint fit that describes the curve: where the
   // plain joint fit misfits grossly (an undithered sawtooth, the reason auto chose the split) its N is ~10-20x the
-  // truth and no evidence against the split's, and comparing them called every sawtooth record doubtful. So with the
-  // split as the answer: the model check's fit with its effects (the sawtooth's lines) when it added some and fits,
-  // else the plain fit when it fits, else nothing to compare (said in the reason). The least-squares N in each case,
-  // as always for the plain fit. Measured (session 16): at 2 h and at 2-5 deg/h the check adds no effects or its fit
-  // misfits too, so most sawtooth axes are not cross-checked; at 10 deg/h and 10-20 min the check's fit is used.
+  // truth and no evidence against the split's. So with the split as the answer: the model check's fit with its
+  // effects (the sawtooth's lines) when it added some and fits, else the plain fit when it fits, else nothing to
+  // compare (said in the reason). On the coverage study's sawtooth classes at 2 h and 2-5 deg/h the check adds no
+  // effects or its fit misfits too, so most sawtooth axes are not cross-checked; at 10 deg/h and 10-20 min the
+  // check's fit is used.
   using quality_limits::notBad;
   if (a.fit.ok && split_ok && a.method != "pulse_times") {  // pulse_times: neither method's N is the answer
     const Coefficient* joint_n = &a.fit.terms[kAngleRandomWalk];
@@ -147,7 +150,7 @@ QualityVerdict assessQuality(const AxisAnalysis& a) {
     ok = a.pulse_times.ok && a.pulse_fit.ok;
     failure = a.pulse_times.ok ? a.pulse_fit.message : a.pulse_times.message;
   }
-  return judge(ok, failure, a.coefficients, a.final_error.rms_log10, a.final_error.chi2_dof, a.final_error.n_rms, ctx);
+  return judge(ok, failure, a.coefficients, a.final_error, ctx);
 }
 
 bool unboundIntervalsIfBad(const QualityVerdict& verdict, std::array<Coefficient, kNumTerms>* coefficients) {
@@ -160,7 +163,7 @@ bool unboundIntervalsIfBad(const QualityVerdict& verdict, std::array<Coefficient
 }
 
 QualityVerdict assessQuality(const FitResult& fit, const QualityContext& context) {
-  return judge(fit.ok, fit.message, fit.terms, fit.rms_log10, fit.chi2_dof, fit.n_rms, context);
+  return judge(fit.ok, fit.message, fit.terms, fitErrorOf(fit), context);
 }
 
 }  // namespace gyro_allan

@@ -1,6 +1,8 @@
 // Unified (Feldman-Cousins) intervals for a non-negative mean with a value-dependent variance and skew.
 #include "gyro_allan/unified_interval.hpp"
 
+#include <boost/math/special_functions/gamma.hpp>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -28,6 +30,15 @@ double VarianceModel::logDensity(double x, double mu) const {
   return (k - 1.0) * std::log(q) - q - std::lgamma(k) + std::log(rk / sd);
 }
 
+double VarianceModel::cdf(double x, double mu) const {
+  const double sd = std::sqrt(std::max(at(mu), 1e-300));
+  const double z = (x - mu) / sd;
+  const double g = skewAt(mu);
+  if (g < 0.02) return 0.5 * std::erfc(-z / std::sqrt(2.0));
+  const double k = 4.0 / (g * g), q = k + std::sqrt(k) * z;
+  return q > 0 ? boost::math::gamma_p(k, q) : 0.0;
+}
+
 VarianceModel VarianceModel::through(const double mu[3], const double var[3]) {
   VarianceModel m;
   // Newton's divided differences.
@@ -53,54 +64,72 @@ VarianceModel VarianceModel::through(const double mu[3], const double var[3]) {
 }
 
 void unifiedInterval(double x, const VarianceModel& v, double confidence, double* lo, double* hi) {
-  // The range of mu searched reaches well past the constrained estimate: up to where x lies 5 sd below mu (the
-  // skewed form's lower tail is shorter than that) or, where the relative scatter never falls below 1/5, 1e4 times
-  // its start (an interval reaching it is unbounded in effect).
+  // The range of mu searched: up to where x lies so far in mu's lower tail (probability 1e-4) that no interval of
+  // the confidences used reaches it, or 1e4 times its start.
   const double xp = std::max(x, 0.0);
   const double s0 = std::sqrt(std::max(v.at(0.0), 1e-300));
-  double mu_max = xp + 5.0 * s0;
-  const double cap = 1e4 * mu_max;
-  while (mu_max < cap && (mu_max - xp) < 5.0 * std::sqrt(v.at(mu_max))) mu_max = xp + 1.5 * (mu_max - xp);
+  double mu_max = xp + 3.0 * s0;
+  const double cap = 1e4 * (xp + 5.0 * s0);
+  const double tail = std::min(1e-4, 0.1 * (1.0 - confidence));
+  while (mu_max < cap && v.cdf(x, mu_max) > tail) mu_max *= 1.5;
   mu_max = std::max(std::min(mu_max, cap), 1e-300);
-  constexpr int kMu = 141, kX = 400;
-  std::vector<double> mus(kMu), sd(kMu);
-  double s_max = 0;
+  constexpr int kMu = 141, kX = 200;
+  std::vector<double> mus(kMu);
   for (int k = 0; k < kMu; ++k) {
     const double u = static_cast<double>(k) / (kMu - 1);
     mus[k] = mu_max * u * u;  // dense near 0, where a truth far below detection sits
-    sd[k] = std::sqrt(std::max(v.at(mus[k]), 1e-300));
-    s_max = std::max(s_max, sd[k]);
   }
   auto logf = [&](double xv, int k) { return v.logDensity(xv, mus[k]); };
-  const double x_lo = std::min(x, -7.0 * s_max);
-  const double x_hi = std::max(x, mu_max + 12.0 * s_max);  // the skewed form's right tail reaches further
-  const double dx = (x_hi - x_lo) / kX;
-  // log f at every (x, mu) and the best mu >= 0 of every x (on the grid)
-  std::vector<double> lf(static_cast<size_t>(kMu) * kX), best(kX, -std::numeric_limits<double>::infinity());
-  for (int j = 0; j < kX; ++j) {
-    const double xj = x_lo + (j + 0.5) * dx;
-    for (int k = 0; k < kMu; ++k) {
-      const double l = logf(xj, k);
-      lf[static_cast<size_t>(k) * kX + j] = l;
-      best[j] = std::max(best[j], l);
+  // The best mu >= 0 for a value xv: 0 for xv <= 0; above, a golden-section search on [0, 2 xv + s0] (the density's
+  // mean is mu, so its maximum lies below ~xv where the scatter grows with mu), tabulated on 200 values evenly spaced
+  // in asinh(xv / s0) (fine near 0, coarse far above) and interpolated.
+  auto bestAt = [&](double xv) {
+    if (xv <= 0) return v.logDensity(xv, 0.0);
+    double a = 0, b = 2.0 * xv + s0;
+    const double g = 0.5 * (std::sqrt(5.0) - 1.0);
+    double c = b - g * (b - a), d = a + g * (b - a), fc = v.logDensity(xv, c), fd = v.logDensity(xv, d);
+    for (int it = 0; it < 40; ++it) {
+      if (fc > fd) b = d, d = c, fd = fc, c = b - g * (b - a), fc = v.logDensity(xv, c);
+      else a = c, c = d, fc = fd, d = a + g * (b - a), fd = v.logDensity(xv, d);
     }
-  }
-  double best_obs = -std::numeric_limits<double>::infinity();
-  for (int k = 0; k < kMu; ++k) best_obs = std::max(best_obs, logf(x, k));
+    return std::max({fc, fd, v.logDensity(xv, 0.0)});
+  };
+  const double sd_top = std::sqrt(std::max(v.at(mu_max), 1e-300));
+  const double t_hi = std::asinh(std::max(x, mu_max + 14.0 * sd_top) / s0);
+  constexpr int kTable = 200;
+  std::vector<double> table(kTable + 1);
+  for (int i = 0; i <= kTable; ++i) table[i] = bestAt(s0 * std::sinh(t_hi * i / kTable));
+  auto best = [&](double xv) {
+    if (xv <= 0) return v.logDensity(xv, 0.0);
+    const double u = std::asinh(xv / s0) / t_hi * kTable;
+    if (u >= kTable) return bestAt(xv);
+    const int i = static_cast<int>(u);
+    const double w = u - i;
+    return (1 - w) * table[i] + w * table[i + 1];
+  };
+  const double best_x = bestAt(x);
   // x lies in mu's acceptance region when the values ranked above it (higher likelihood ratio) hold less than the
-  // confidence: no sort needed.
+  // confidence: each mu's own grid of X values over its bulk (8 sd below the mean, 14 above: the skewed form's right
+  // tail reaches further), no sort needed.
   int first = -1, last = -1;
+  std::vector<double> row(kX), ratio(kX);
   for (int k = 0; k < kMu; ++k) {
-    const double* row = &lf[static_cast<size_t>(k) * kX];
+    const double sd = std::sqrt(std::max(v.at(mus[k]), 1e-300));
+    const double x0 = mus[k] - 8.0 * sd, dx = 22.0 * sd / kX;
     double peak = -std::numeric_limits<double>::infinity();
-    for (int j = 0; j < kX; ++j) peak = std::max(peak, row[j]);
-    const double r_obs = logf(x, k) - best_obs;
+    for (int j = 0; j < kX; ++j) {
+      const double xj = x0 + (j + 0.5) * dx;
+      row[j] = logf(xj, k);
+      ratio[j] = row[j] - best(xj);
+      peak = std::max(peak, row[j]);
+    }
+    const double r_obs = logf(x, k) - best_x;
     double total = 0, above = 0;
     for (int j = 0; j < kX; ++j) {
       if (!(row[j] - peak >= -40.0)) continue;  // mass below 4e-18 of the peak's (or none)
       const double m = std::exp(row[j] - peak);
       total += m;
-      if (row[j] - best[j] > r_obs) above += m;
+      if (ratio[j] > r_obs) above += m;
     }
     if (!(total > 0)) continue;
     if (above / total < confidence) {

@@ -196,6 +196,7 @@ YAML::Node fitNode(const FitResult& fit) {
   n["chi2_dof"] = num(fit.chi2_dof);
   n["dof"] = fit.dof;
   n["rms_points"] = fit.n_rms;
+  n["worst_adev_ratio"] = num(fit.worst_adev_ratio);
   if (fit.gls) {
     n["weighting"] = str("gls");
     n["chi2_p"] = num(fit.chi2_p);
@@ -328,7 +329,7 @@ void jsonValue(std::ostringstream& o, const YAML::Node& n, int indent) {
 
 std::string fmtCoef(const Coefficient& c, double factor) {
   char buf[64];
-  if (!c.supported) std::snprintf(buf, sizeof buf, "0 (<%.3g)", c.sigma * factor);
+  if (!c.supported) std::snprintf(buf, sizeof buf, "%.2g (<%.3g)", c.value * factor, c.hi95 * factor);
   else std::snprintf(buf, sizeof buf, "%.4g +- %.2g", c.value * factor, c.sigma * factor);
   return buf;
 }
@@ -401,6 +402,9 @@ YAML::Node buildReport(const ReportMeta& meta, const std::vector<AxisAnalysis>& 
     n["method_reason"] = str(a.method_reason);
     n["coefficients"] = coefficientsNode(a.coefficients);
     n["fit"] = errorNode(a.final_error.rms_log10, a.final_error.chi2_dof);
+    // The verdict's figures: the largest model/measured ADEV factor at tight points, the adequacy p-value (GLS).
+    n["fit"]["worst_adev_ratio"] = num(a.final_error.worst_adev_ratio);
+    if (std::isfinite(a.final_error.chi2_p)) n["fit"]["chi2_p"] = num(a.final_error.chi2_p);
     addQuality(&n, a);
     if (answerFit(a).ok && answerFit(a).gls) n["correlation"] = correlationNode(answerFit(a));  // how B, K, R trade
     if (a.quantized.quantized) n["quantized_output"] = quantizedNode(a.quantized);
@@ -511,8 +515,9 @@ std::string summaryTable(const std::vector<AxisAnalysis>& axes) {
                   a.method.c_str(), a.quality.quality == Quality::Bad ? "BAD" : qualityName(a.quality.quality));
     o << buf << "\n";
   }
-  o << "(value +- 1 sigma from the GLS covariance of the Allan-variance estimates; 0 (<b): not supported by the data, "
-       "b = upper end of its 68 % interval; 68 %/95 % intervals in report.yaml)\n";
+  o << "(value +- 1 sigma from the GLS covariance of the Allan-variance estimates; v (<b): not supported by the data "
+       "(its 95 % interval reaches 0), fitted value v and b = upper end of its 95 % interval; the model curve uses v; "
+       "68 %/95 % intervals in report.yaml)\n";
   o << qualityLines(axes, true);
   // Spikes: how many were removed and what N the plain joint fit gives with them left in (x: ratio to the joint fit
   // without them).
@@ -571,6 +576,9 @@ YAML::Node accelerometerNode(const std::vector<AxisAnalysis>& axes, const std::v
     }
     n["coefficients"] = c;
     n["fit"] = errorNode(a.final_error.rms_log10, a.final_error.chi2_dof);
+    // The verdict's figures: the largest model/measured ADEV factor at tight points, the adequacy p-value (GLS).
+    n["fit"]["worst_adev_ratio"] = num(a.final_error.worst_adev_ratio);
+    if (std::isfinite(a.final_error.chi2_p)) n["fit"]["chi2_p"] = num(a.final_error.chi2_p);
     addQuality(&n, a);
     if (a.spikes_checked) n["spikes"] = spikesNode(a, accelConventionalFactor, accelConventionalUnit, accelTermUnit, "m_s2");
     r["axes"][key] = n;

@@ -635,7 +635,7 @@ int runBatch(const Args& args) {
         char buf[32];
         for (int t = 0; t < kNumTerms; ++t) {
           const Coefficient& c = a.coefficients[static_cast<size_t>(t)];
-          std::snprintf(buf, sizeof buf, ",%.6g", c.supported ? c.value : 0.0);
+          std::snprintf(buf, sizeof buf, ",%.6g", c.value);
           csv << buf;
           if (!c.supported) unsupported += std::string(unsupported.empty() ? "" : " ") + noiseTermKey(t);
         }

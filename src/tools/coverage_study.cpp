@@ -1,6 +1,7 @@
 // Coverage study of the coefficient intervals: simulated gyros with declared IEEE 952 noise, the full analyzeAxis,
 // and per sensor class and term how often [lo68, hi68] / [lo95, hi95] hold the truth, plus bias, phantom and
-// detection rates; one CSV line per axis-run and term, and a summary table.
+// detection rates, and what users see: how far the reported model's Allan deviation is from the true one, next to a
+// plain weighted least-squares baseline; one CSV line per axis-run and term, and summary tables.
 //
 //   coverage_study [--seeds A-B] [--classes a,b,...] [--duration S | --durations S1,S2,...] [--rate HZ]
 //                  [--max-samples N] [--threads N] [--csv FILE] [--method auto|joint_fit|wavelet_split]
@@ -26,9 +27,11 @@
 //   fog           | -    | 0.005  | 0.05  | -     | - | -     | 100 Hz, 2 h  | navigation FOG: N and B only
 //   rlg_dither    | 0.35 | 0.002  | 0.005 | -     | - | 0     | 100 Hz, 2 h  | dithered RLG (dither = true)
 //   rlg_saw0      | 0.35 | 0.002  | 0.005 | -     | - | 0     | 100 Hz, 2 h  | undithered RLG (dither = false). Q 0.35
-//   rlg_saw5      | 0.35 | 0.002  | 0.005 | -     | - | 5     | 100 Hz, 2 h  |   arcsec: pulse weight Q*sqrt(12) = 1.2
-//   rlg_saw10     | 0.35 | 0.002  | 0.005 | -     | - | 10    | 100 Hz, 2 h  |   arcsec (28 cm ring); a constant input
-//   rlg_saw15     | 0.35 | 0.002  | 0.005 | -     | - | 15    | 100 Hz, 2 h  |   makes the quantization a sawtooth
+//   rlg_saw1      | 0.35 | 0.002  | 0.005 | -     | - | 1     | 100 Hz, 2 h  |   arcsec: pulse weight Q*sqrt(12) = 1.2
+//   rlg_saw2      | 0.35 | 0.002  | 0.005 | -     | - | 2     | 100 Hz, 2 h  |   arcsec (28 cm ring); a constant input
+//   rlg_saw5      | 0.35 | 0.002  | 0.005 | -     | - | 5     | 100 Hz, 2 h  |   makes the quantization a sawtooth
+//   rlg_saw10     | 0.35 | 0.002  | 0.005 | -     | - | 10    | 100 Hz, 2 h  |
+//   rlg_saw15     | 0.35 | 0.002  | 0.005 | -     | - | 15    | 100 Hz, 2 h  |
 //   issue         | -    | 0.6875 | 2.063 | 12.38 | - | -     | 100 Hz, 1 h  | the issue's example: N 2e-4 rad/sqrt(s),
 //                 |      |        |       |       |   |       |              |   B 1e-5 rad/s, K 1e-6 rad/s/sqrt(s)
 //   nk            | -    | 0.6875 | -     | 12.38 | - | -     | 100 Hz, 1 h  | the same with N and K only (phantom B?)
@@ -36,19 +39,37 @@
 // The rate is lowered to max-samples/duration when above it (default 720000: a 4 h record runs at 50 Hz).
 // Each (class, duration, seed) simulates with its own stream: simulateAxis seed = seed + (FNV-1a hash of
 // "class@duration" << 32), so classes and durations are independent and a run is reproducible from its CSV line.
-// Measured (2 threads on a 2-core machine shared with other jobs, load 2.5-4): the default (seeds 1-20, 11 classes before rlg_saw1/rlg_saw2 were added in session 7,
-// 220 runs) took 83-132 s wall; --durations 600,3600,14400 (660 runs) 194 s. Results do not depend on --threads.
+// Measured (2 threads on a 2-core machine shared with other jobs, load 2.5-4): seeds 1-20 over all classes except
+// rlg_saw1 and rlg_saw2 (220 runs) took 83-132 s wall; --durations 600,3600,14400 (660 runs) 194 s. Results do not
+// depend on --threads.
 //
 // Per run (AnalysisOptions defaults except what the command line sets; one segment = the whole record) and term t
 // with truth T, the reported Coefficient c = AxisAnalysis::coefficients[t]:
 //   T > 0, c supported:    covered68 = lo68 <= T <= hi68, covered95 = lo95 <= T <= hi95      ("sup" columns)
-//   T > 0, c unsupported:  the same, with its interval (usually [0, hi]; a dropped term's unified interval may
-//                          start above 0: selective.hpp)                                       ("ub" columns)
+//   T > 0, c unsupported:  the same, with its interval (the unified (Feldman-Cousins) interval, which may start
+//                          above 0)                                                            ("ub" columns)
 //   cov68 / cov95: over both kinds. bias: median of value/T - 1 over supported terms with T > 0.
 //   phantom: fraction of runs with T = 0 where the term is supported; detect: fraction with T > 0 where it is.
 //   noint: cases with T > 0 whose interval fields are empty (hi95 = 0 although value or sigma is not); they count
 //          as not covered.
 // Every coverage figure is followed by its binomial standard error sqrt(p(1-p)/n).
+//
+// What users see. worst (per run) = max over 60 log-spaced tau in [10/rate, duration/10] of
+// |adev_model(tau)/adev_true(tau) - 1|, both from the IEEE formula (noiseTermBasis(term, tau)): adev_model from the
+// reported values (Coefficient::value of all five terms, supported or not), adev_true from the declared truth (for
+// an undithered rlg_saw class that is a definition). The baseline is a plain weighted least-squares fit of the same
+// record's oadev curve: fitNoiseModel with FitWeighting::Edf, significance 0 and decorrelate false (every term at
+// its non-negative estimate, intervals from the EDF-weighted covariance); its worst is computed the same way.
+//   Per-term tables, added columns: w68 / base-w68 = median (hi68 - lo68)/truth over the cases with truth > 0 of the
+//   answer / the baseline; base-cov68 / base-cov95 = the baseline's coverage (as cov68 / cov95).
+//   "What users see" table, per class: n = runs ok; in25 / med-worst = fraction of runs with worst <= 25 % and the
+//   median worst, for the answer and the baseline; good>50% = fraction of the n runs whose answer's worst is
+//   > 50 % while its verdict is good; out68 = reported values (run x term) outside their own [lo68, hi68] (relative
+//   tolerance 1e-9; an empty or NaN interval counts as outside).
+// CSV columns: class, duration_s, rate_hz, seed, sim_seed, term, truth, the answer's value, sigma, lo68, hi68,
+// lo95, hi95, supported; the run's method, quality, rms_log10, chi2_dof; the term's evidence; the run's model_worst
+// and base_worst (repeated on its five lines); the baseline's base_value, base_lo68, base_hi68, base_lo95,
+// base_hi95; error (empty when the run succeeded).
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -112,8 +133,8 @@ std::vector<Class> classes() {
   c.push_back(make("fog", 100, 2, 0, 0.005, 0.05, 0));
   c.push_back(make("rlg_dither", 100, 2, 0.35, 0.002, 0.005, 0, true));
   c.push_back(make("rlg_saw0", 100, 2, 0.35, 0.002, 0.005, 0, false, 0));
-  c.push_back(make("rlg_saw1", 100, 2, 0.35, 0.002, 0.005, 0, false, 1));  // since session 7
-  c.push_back(make("rlg_saw2", 100, 2, 0.35, 0.002, 0.005, 0, false, 2));  // since session 7
+  c.push_back(make("rlg_saw1", 100, 2, 0.35, 0.002, 0.005, 0, false, 1));
+  c.push_back(make("rlg_saw2", 100, 2, 0.35, 0.002, 0.005, 0, false, 2));
   c.push_back(make("rlg_saw5", 100, 2, 0.35, 0.002, 0.005, 0, false, 5));
   c.push_back(make("rlg_saw10", 100, 2, 0.35, 0.002, 0.005, 0, false, 10));
   c.push_back(make("rlg_saw15", 100, 2, 0.35, 0.002, 0.005, 0, false, 15));
@@ -136,6 +157,34 @@ double truthOf(const AxisNoise& a, int t) {
     case kRateRamp: return std::abs(a.rate_ramp);
     default: return 0;
   }
+}
+
+/// IEEE 952 Allan variance at tau of five coefficients (rad, rad/sqrt(s), ...): sum of value^2 * noiseTermBasis.
+double ieeeAvar(const std::array<double, kNumTerms>& coef, double tau) {
+  double v = 0;
+  for (int t = 0; t < kNumTerms; ++t) {
+    const double c = coef[static_cast<size_t>(t)];
+    v += c * c * noiseTermBasis(t, tau);
+  }
+  return v;
+}
+
+/// max |adev_model/adev_true - 1| over 60 log-spaced tau in [10/rate, duration/10], the model from c's values.
+double worstAdevError(const std::array<Coefficient, kNumTerms>& c, const AxisNoise& truth, double rate_hz,
+                      double duration_s) {
+  std::array<double, kNumTerms> model{}, actual{};
+  for (int t = 0; t < kNumTerms; ++t) {
+    model[static_cast<size_t>(t)] = c[static_cast<size_t>(t)].value;
+    actual[static_cast<size_t>(t)] = truthOf(truth, t);
+  }
+  const int kTaus = 60;
+  const double lo = 10.0 / rate_hz, hi = duration_s / 10.0;
+  double worst = 0;
+  for (int i = 0; i < kTaus; ++i) {
+    const double tau = lo * std::pow(hi / lo, static_cast<double>(i) / (kTaus - 1));
+    worst = std::max(worst, std::abs(std::sqrt(ieeeAvar(model, tau) / ieeeAvar(actual, tau)) - 1.0));
+  }
+  return worst;
 }
 
 uint64_t fnv1a(const std::string& s) {
@@ -162,10 +211,11 @@ struct Run {
   std::string method;
   std::string quality;  // the axis's verdict (good | doubtful | bad); a bad axis's intervals are [0, inf)
   double rms_log10 = 0, chi2_dof = 0;
-  std::string rival;  // the term selection's closest non-nested rival (FitResult::rival_terms), e.g. "NB"
-  double rival_gap = std::numeric_limits<double>::infinity();  // (inf: no rival, or the run failed)
   std::array<double, kNumTerms> evidence{};  // FitResult::evidence of the same fit
   std::array<Coefficient, kNumTerms> c;
+  std::array<Coefficient, kNumTerms> base;  // the baseline: plain weighted least squares of the same oadev
+  double model_worst = std::numeric_limits<double>::quiet_NaN();  // worstAdevError of c (NaN: the run failed)
+  double base_worst = std::numeric_limits<double>::quiet_NaN();   // ... of base (NaN also: the baseline fit failed)
 };
 
 /// Coverage tallies of one (class, term) cell.
@@ -176,9 +226,15 @@ struct Cell {
   int noint = 0;
   int n0 = 0, phantom = 0;              // truth == 0
   std::vector<double> rel;              // value/truth - 1, supported with truth > 0
-  void add(double truth, const Coefficient& c) {
+  std::vector<double> w68, base_w68;    // (hi68 - lo68)/truth, truth > 0: the answer's, the baseline's
+  int base68 = 0, base95 = 0;           // the baseline's coverage, truth > 0 (of n)
+  void add(double truth, const Coefficient& c, const Coefficient& base) {
     if (truth > 0) {
       ++n;
+      w68.push_back((c.hi68 - c.lo68) / truth);
+      base_w68.push_back((base.hi68 - base.lo68) / truth);
+      base68 += base.lo68 <= truth && truth <= base.hi68;
+      base95 += base.lo95 <= truth && truth <= base.hi95;
       bool c68, c95;
       if (c.supported) {
         c68 = c.lo68 <= truth && truth <= c.hi68;
@@ -204,8 +260,35 @@ struct Cell {
   }
   void merge(const Cell& o) {
     n += o.n, in68 += o.in68, in95 += o.in95, ns += o.ns, s68 += o.s68, s95 += o.s95, nu += o.nu, u68 += o.u68,
-        u95 += o.u95, noint += o.noint, n0 += o.n0, phantom += o.phantom;
+        u95 += o.u95, noint += o.noint, n0 += o.n0, phantom += o.phantom, base68 += o.base68, base95 += o.base95;
     rel.insert(rel.end(), o.rel.begin(), o.rel.end());
+    w68.insert(w68.end(), o.w68.begin(), o.w68.end());
+    base_w68.insert(base_w68.end(), o.base_w68.begin(), o.base_w68.end());
+  }
+};
+
+/// The "what users see" tallies of one class (or all): worst errors of the answer and the baseline per run.
+struct Seen {
+  int n = 0, in25 = 0, good50 = 0, out68 = 0;
+  int base_n = 0, base_in25 = 0;
+  std::vector<double> worst, base_worst;
+  void add(const Run& r) {
+    ++n;
+    in25 += r.model_worst <= 0.25;
+    good50 += r.model_worst > 0.5 && r.quality == "good";
+    worst.push_back(r.model_worst);
+    for (const auto& c : r.c)
+      out68 += !(c.value >= c.lo68 * (1 - 1e-9) && c.value <= c.hi68 * (1 + 1e-9));
+    if (std::isfinite(r.base_worst)) {
+      ++base_n;
+      base_in25 += r.base_worst <= 0.25;
+      base_worst.push_back(r.base_worst);
+    }
+  }
+  void merge(const Seen& o) {
+    n += o.n, in25 += o.in25, good50 += o.good50, out68 += o.out68, base_n += o.base_n, base_in25 += o.base_in25;
+    worst.insert(worst.end(), o.worst.begin(), o.worst.end());
+    base_worst.insert(base_worst.end(), o.base_worst.begin(), o.base_worst.end());
   }
 };
 
@@ -226,9 +309,9 @@ std::string frac(int k, int n) {
 }
 
 void printHeader() {
-  std::printf("%-14s %-4s %4s %-12s %-12s %4s %-12s %-12s %4s %-12s %-12s %9s %5s %8s %7s %6s\n", "class", "term",
-              "n", "cov68", "cov95", "ns", "sup-cov68", "sup-cov95", "nu", "ub-cov68", "ub-cov95", "bias(med)",
-              "noint", "phantom", "detect", "n0");
+  std::printf("%-14s %-4s %4s %-12s %-12s %4s %-12s %-12s %4s %-12s %-12s %9s %5s %8s %7s %6s %8s %8s %-12s %-12s\n",
+              "class", "term", "n", "cov68", "cov95", "ns", "sup-cov68", "sup-cov95", "nu", "ub-cov68", "ub-cov95",
+              "bias(med)", "noint", "phantom", "detect", "n0", "w68", "base-w68", "base-cov68", "base-cov95");
 }
 
 // printf pads by bytes; "±" is two bytes in UTF-8, so pad by hand.
@@ -238,14 +321,35 @@ std::string pad(const std::string& s, size_t width) {
   return chars >= width ? s : s + std::string(width - chars, ' ');
 }
 
+/// median(v) as "%.3g", or "-" when v is empty.
+std::string medianText(const std::vector<double>& v) {
+  if (v.empty()) return "-";
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.3g", median(v));
+  return buf;
+}
+
 void printRow(const std::string& name, int t, const Cell& c) {
   char bias[32] = "-";
   if (!c.rel.empty()) std::snprintf(bias, sizeof bias, "%+.2f%%", 100 * median(c.rel));
-  std::printf("%-14s %-4s %4d %s %s %4d %s %s %4d %s %s %9s %5d %8s %7s %6d\n", name.c_str(), kTermShort[t], c.n,
-              pad(prop(c.in68, c.n), 12).c_str(), pad(prop(c.in95, c.n), 12).c_str(), c.ns,
+  std::printf("%-14s %-4s %4d %s %s %4d %s %s %4d %s %s %9s %5d %8s %7s %6d %8s %8s %s %s\n", name.c_str(),
+              kTermShort[t], c.n, pad(prop(c.in68, c.n), 12).c_str(), pad(prop(c.in95, c.n), 12).c_str(), c.ns,
               pad(prop(c.s68, c.ns), 12).c_str(), pad(prop(c.s95, c.ns), 12).c_str(), c.nu,
               pad(prop(c.u68, c.nu), 12).c_str(), pad(prop(c.u95, c.nu), 12).c_str(), bias, c.noint,
-              frac(c.phantom, c.n0).c_str(), frac(c.ns, c.n).c_str(), c.n0);
+              frac(c.phantom, c.n0).c_str(), frac(c.ns, c.n).c_str(), c.n0, medianText(c.w68).c_str(),
+              medianText(c.base_w68).c_str(), pad(prop(c.base68, c.n), 12).c_str(),
+              pad(prop(c.base95, c.n), 12).c_str());
+}
+
+void printSeenHeader() {
+  std::printf("%-14s %4s %6s %10s %11s %15s %9s %6s\n", "class", "n", "in25", "med-worst", "base-in25",
+              "base-med-worst", "good>50%", "out68");
+}
+
+void printSeenRow(const std::string& name, const Seen& s) {
+  std::printf("%-14s %4d %6s %10s %11s %15s %9s %6d\n", name.c_str(), s.n, frac(s.in25, s.n).c_str(),
+              medianText(s.worst).c_str(), frac(s.base_in25, s.base_n).c_str(), medianText(s.base_worst).c_str(),
+              frac(s.good50, s.n).c_str(), s.out68);
 }
 
 std::vector<std::string> splitList(const std::string& s) {
@@ -309,7 +413,7 @@ void usage() {
                "                      [--no-wavelet-split] [--sawtooth-replicas N] [--list] [--define NAME:key=value,...]...\n"
                "  --sawtooth-replicas: records simulated per non-white quantization axis for Q's and N's bias and Q's\n"
                "  sigma, where the output is a detected pulse count (default 10, at least 2; 0: the analytic\n"
-               "  allowance instead, the code before session 14)\n"
+               "  allowance instead)\n"
                "  --define: a class of your own, e.g. my_ramp:rate=200,hours=1,n=0.1,b=0.8,k=0.5,r=40\n"
                "  (keys rate hours q n b k r in dither; units as --list; unset terms 0; repeatable)\n"
                "  seeds 1-999: tuning set (1-30), 1001-: validation set (1001-1030). Default 1-20.\n"
@@ -465,6 +569,16 @@ int main(int argc, char** argv) {
           r.chi2_dof = a.final_error.chi2_dof;
           const FitResult& f = answerFit(a);
           r.evidence = f.evidence;
+          r.model_worst = worstAdevError(r.c, j.k.a, j.rate_hz, j.duration_s);
+          FitOptions base_opt;
+          base_opt.weighting = FitWeighting::Edf;
+          base_opt.significance = 0;
+          base_opt.decorrelate = false;
+          const FitResult base = fitNoiseModel(a.oadev, base_opt);
+          if (base.ok) {
+            r.base = base.terms;
+            r.base_worst = worstAdevError(r.base, j.k.a, j.rate_hz, j.duration_s);
+          }
           r.ok = true;
         } catch (const std::exception& e) {
           r.error = e.what();
@@ -486,19 +600,24 @@ int main(int argc, char** argv) {
       if (!csv) throw std::runtime_error("cannot write " + csv_path);
       std::fprintf(csv,
                    "class,duration_s,rate_hz,seed,sim_seed,term,truth,value,sigma,lo68,hi68,lo95,hi95,supported,"
-                   "method,quality,rms_log10,chi2_dof,rival,rival_gap,evidence,error\n");
+                   "method,quality,rms_log10,chi2_dof,evidence,model_worst,base_worst,base_value,base_lo68,"
+                   "base_hi68,base_lo95,base_hi95,error\n");
       for (const auto& r : runs) {
         const Job& j = jobs[r.job];
         for (int t = 0; t < kNumTerms; ++t) {
           const Coefficient& c = r.c[static_cast<size_t>(t)];
+          const Coefficient& b = r.base[static_cast<size_t>(t)];
           std::string err = r.error;
           for (auto& ch : err)
             if (ch == ',' || ch == '"' || ch == '\n') ch = ';';
-          std::fprintf(csv, "%s,%.0f,%.6g,%d,%llu,%s,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%d,%s,%s,%.6g,%.6g,%s,%.6g,%.6g,%s\n",
+          std::fprintf(csv,
+                       "%s,%.0f,%.6g,%d,%llu,%s,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%d,%s,%s,%.6g,%.6g,%.6g,%.6g,%.6g,"
+                       "%.9g,%.9g,%.9g,%.9g,%.9g,%s\n",
                        j.k.name.c_str(), j.duration_s, j.rate_hz, r.seed,
                        static_cast<unsigned long long>(r.sim_seed), kTermShort[t], truthOf(j.k.a, t), c.value,
                        c.sigma, c.lo68, c.hi68, c.lo95, c.hi95, c.supported ? 1 : 0, r.method.c_str(), r.quality.c_str(), r.rms_log10,
-                       r.chi2_dof, r.rival.c_str(), r.rival_gap, r.evidence[static_cast<size_t>(t)], err.c_str());
+                       r.chi2_dof, r.evidence[static_cast<size_t>(t)], r.model_worst, r.base_worst, b.value, b.lo68,
+                       b.hi68, b.lo95, b.hi95, err.c_str());
         }
       }
       std::fclose(csv);
@@ -512,6 +631,8 @@ int main(int argc, char** argv) {
     // calibration.
     std::array<Cell, kNumTerms> estimated;
     int bad_axes = 0, exact_values = 0;
+    std::vector<Seen> seen(jobs.size());
+    Seen seen_all;
     std::printf("# coverage of the truth by [lo68,hi68] / [lo95,hi95] (unsupported terms too: usually [0, hi]), "
                 "each ± its binomial standard error; bias = median(value/truth - 1) over supported terms\n");
     std::printf("# cov = all cases with truth > 0 (n); sup = supported (ns); ub = unsupported, upper bound (nu); "
@@ -535,18 +656,21 @@ int main(int argc, char** argv) {
         ++methods[r.method];
         rms.push_back(r.rms_log10);
         chi.push_back(r.chi2_dof);
+        seen[ji].add(r);
         const bool bad = r.quality == "bad";
         bad_axes += bad;
         for (int t = 0; t < kNumTerms; ++t) {
-          cells[static_cast<size_t>(t)].add(truthOf(j.k.a, t), r.c[static_cast<size_t>(t)]);
           const Coefficient& c = r.c[static_cast<size_t>(t)];
+          const Coefficient& b = r.base[static_cast<size_t>(t)];
+          cells[static_cast<size_t>(t)].add(truthOf(j.k.a, t), c, b);
           if (bad) continue;
-          answered[static_cast<size_t>(t)].add(truthOf(j.k.a, t), c);
+          answered[static_cast<size_t>(t)].add(truthOf(j.k.a, t), c, b);
           const bool exact = c.supported && c.value > 0 && c.sigma <= 1e-5 * c.value;
           exact_values += exact;
-          if (!exact) estimated[static_cast<size_t>(t)].add(truthOf(j.k.a, t), c);
+          if (!exact) estimated[static_cast<size_t>(t)].add(truthOf(j.k.a, t), c, b);
         }
       }
+      seen_all.merge(seen[ji]);
       errors += err;
       std::string m;
       for (const auto& kv : methods) m += " " + kv.first + " " + std::to_string(kv.second);
@@ -569,6 +693,13 @@ int main(int argc, char** argv) {
                 exact_values);
     printHeader();
     for (int t = 0; t < kNumTerms; ++t) printRow("estimated", t, estimated[static_cast<size_t>(t)]);
+    std::printf("\n## what users see: worst |adev_model/adev_true - 1| over 60 tau in [10/rate, duration/10] per run; "
+                "in25 = fraction with worst <= 25 %%, med-worst = median worst, answer and baseline (EDF-weighted "
+                "least squares, significance 0); good>50%% = fraction of runs off by > 50 %% with verdict good; "
+                "out68 = values outside their own [lo68, hi68]\n");
+    printSeenHeader();
+    for (size_t ji = 0; ji < jobs.size(); ++ji) printSeenRow(jobs[ji].key, seen[ji]);
+    printSeenRow("all", seen_all);
     std::printf("\n# %zu axis-runs (%d failed) in %.1f s wall on %d thread(s)\n", runs.size(), errors, elapsed,
                 threads);
     return 0;
