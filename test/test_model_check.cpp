@@ -312,7 +312,7 @@ TEST(ModelCheck, GaussMarkovFound) {
     EXPECT_EQ(e.type, "gauss_markov");
     EXPECT_NEAR(param(e, "tau_c_s"), c.tc, 0.3 * c.tc);
     EXPECT_NEAR(param(e, "sigma"), c.sigma, 0.2 * c.sigma);
-    // KNOWN LIMITATIONS of the GLS joint refit (docs/calibration.md, "What is left"): with the Tc = 100 s
+    // KNOWN LIMITATIONS of the GLS joint refit (docs/fit.md, "Limits"): with the Tc = 100 s
     // Gauss-Markov term in, the refit selects a phantom rate ramp (R = 3.9e-9 +- 3e-10 rad/s^2, truth 0) that takes up
     // the extra term's shape mismatch at the longest taus, so R is not checked there; at Tc = 10 s the RMS gain is
     // 2.58x, so that case needs 2.5x instead of 3x. Both stay until the covariance models extra terms analytically.

@@ -56,7 +56,11 @@ TEST(UnifiedInterval, CoversAtItsStatedRate) {
     VarianceModel v;
   };
   // Constant scatter (normal); scatter growing with mu (the AVAR's chi-squared-like spread, skewed up to 2).
-  const Case cases[] = {{"constant", {1.0, 0.0, 0.0}}, {"growing", {1.0, 0.0, 0.5}}, {"linear", {1.0, 0.5, 0.0}}};
+  // "precise": a term far above its noise (relative sd 1e-3 at mu 10), which the grid must resolve.
+  const Case cases[] = {{"constant", {1.0, 0.0, 0.0}},
+                        {"growing", {1.0, 0.0, 0.5}},
+                        {"linear", {1.0, 0.5, 0.0}},
+                        {"precise", {1e-6, 0.0, 1e-6}}};
   uint64_t seed = 1;
   for (const auto& k : cases)
     for (double mu : {0.0, 1.0, 3.0, 10.0}) {

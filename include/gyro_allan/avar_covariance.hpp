@@ -1,7 +1,7 @@
 // Covariance of overlapping Allan-variance (oadev^2) estimates across tau for the IEEE 952 noise model: the weight
 // matrix of the generalized-least-squares fit (noise_model.cpp) and of the calibrated residual test.
 //
-// Method (docs/calibration.md): the angle x of a gyro whose rate holds quantization Q, angle random walk N, flicker
+// Method (docs/fit.md): the angle x of a gyro whose rate holds quantization Q, angle random walk N, flicker
 // bias instability B and rate random walk K is a Gaussian intrinsic random function of order 1 with generalized
 // covariance  Q^2 [t = 0]  -  N^2 |t| / 2  +  B^2 t^2 ln|t| / (2 pi)  +  K^2 |t|^3 / 12  (each reproduces its term of
 // sigma^2(tau) exactly). The second difference d_k(m) = x[k+2m] - 2 x[k+m] + x[k] behind each AVAR term is a linear

@@ -204,6 +204,7 @@ struct GlsFit {
   Eigen::VectorXd c;                // coefficient weights (AVAR units), per column
   std::vector<int> pos;             // the columns with a positive weight
   std::vector<double> sd0;          // per column: sd of its estimate at the fit (misfit inflation included)
+  Eigen::LLT<Eigen::MatrixXd> fit_llt;  // Cholesky factor of the covariance at the fit
 
   GlsFit(const DeviationCurve& curve_, const FitOptions& options_, const std::vector<ExtraTerm>& extra_)
       : curve(curve_), options(options_), extra(extra_) {}
@@ -283,16 +284,31 @@ struct GlsFit {
     }
   }
 
-  // sd of the free estimate of column `col` (at position k of cols) when its true weight is mu, the others at the fit.
-  double sdAt(const std::vector<int>& cols, int k, int col, double mu) const {
+  // The linear weights g of the free estimate of column `col` (at position k of cols) at the fitted covariance C:
+  // estimate = g' y with g = C^-1 F (F' C^-1 F)^-1 e_k (F: the columns `cols`). Empty when C is not positive definite.
+  Eigen::VectorXd weightsOf(const std::vector<int>& cols, int k) const {
+    if (fit_llt.info() != Eigen::Success) return {};
+    const int m = static_cast<int>(cols.size());
+    Eigen::MatrixXd Fc(P.F.rows(), m);
+    for (int j = 0; j < m; ++j) {
+      Fc.col(j) = P.F.col(cols[static_cast<size_t>(j)]);
+      const double nrm = Fc.col(j).norm();
+      if (nrm > 0) Fc.col(j) /= nrm;  // scaled for the inverse; undone below
+    }
+    const Eigen::MatrixXd CiF = fit_llt.solve(Fc);
+    const Eigen::MatrixXd inv = (Fc.transpose() * CiF).completeOrthogonalDecomposition().pseudoInverse();
+    const double nrm = P.F.col(cols[static_cast<size_t>(k)]).norm();
+    return nrm > 0 ? Eigen::VectorXd(CiF * inv.col(k) / nrm) : Eigen::VectorXd();
+  }
+
+  // sd of that estimate when the column's true weight is mu and the others are at the fit: the weights stay those
+  // of the fit (they are what the estimate used), the scatter of y is the covariance at mu (a sandwich).
+  double sdAt(const Eigen::VectorXd& g, int col, double mu) const {
+    if (g.size() == 0) return std::numeric_limits<double>::quiet_NaN();
     Eigen::VectorXd cm = c;
     cm[col] = std::max(0.0, mu);
-    const Whitened wx = whiten(P, P.covariance(cm));
-    if (!wx.ok) return std::numeric_limits<double>::quiet_NaN();
-    Eigen::VectorXd est;
-    Eigen::MatrixXd cov;
-    solveFree(wx, cols, &est, &cov);
-    return std::sqrt(std::max(0.0, cov(k, k) * r.uncertainty_inflation));
+    const double var = g.dot(P.covariance(cm) * g);
+    return std::sqrt(std::max(0.0, var * r.uncertainty_inflation));
   }
 
   // Each term's value, sd and intervals. The estimate x of a term with a positive weight is its weight (the free
@@ -320,8 +336,9 @@ struct GlsFit {
         const double m1 = std::max({x, sd, 1e-300});
         const double mu[3] = {0.0, m1, m1 + 4.0 * std::max(sd, 0.25 * m1)};
         double var[3];
+        const Eigen::VectorXd g = weightsOf(cols, k);
         for (int i = 0; i < 3; ++i) {
-          const double s = sdAt(cols, k, col, mu[i]);
+          const double s = sdAt(g, col, mu[i]);
           var[i] = std::isfinite(s) && s > 0 ? s * s : sd * sd;
         }
         const VarianceModel vm = VarianceModel::through(mu, var);
@@ -410,6 +427,7 @@ FitResult fitNoiseModelGls(const DeviationCurve& curve, const FitOptions& option
   }
   g.statistics(w);
   g.r.intervals = options.intervals;
+  if (options.intervals) g.fit_llt.compute(g.P.covariance(g.c));
   g.coefficients(w);
   g.correlation(w);
   g.modelCurve();

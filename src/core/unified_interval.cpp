@@ -68,16 +68,21 @@ void unifiedInterval(double x, const VarianceModel& v, double confidence, double
   // the confidences used reaches it, or 1e4 times its start.
   const double xp = std::max(x, 0.0);
   const double s0 = std::sqrt(std::max(v.at(0.0), 1e-300));
-  double mu_max = xp + 3.0 * s0;
+  double mu_max = xp + 3.0 * std::sqrt(std::max(v.at(xp), 1e-300));
   const double cap = 1e4 * (xp + 5.0 * s0);
   const double tail = std::min(1e-4, 0.1 * (1.0 - confidence));
-  while (mu_max < cap && v.cdf(x, mu_max) > tail) mu_max *= 1.5;
+  while (mu_max < cap && v.cdf(x, mu_max) > tail) mu_max = xp + 1.5 * (mu_max - xp);
   mu_max = std::max(std::min(mu_max, cap), 1e-300);
+  // The mu grid: dense near 0 (quadratic spacing from 0) where the interval may reach 0; where it cannot (x more
+  // than 10 sd above 0), 0 and an even grid over [x - 10 sd, mu_max], which resolves the interval of a term far
+  // above its noise (its relative sd can be 1e-3).
   constexpr int kMu = 141, kX = 200;
+  const double window = std::max(0.0, xp - 10.0 * std::sqrt(std::max(v.at(xp), 1e-300)));
   std::vector<double> mus(kMu);
-  for (int k = 0; k < kMu; ++k) {
-    const double u = static_cast<double>(k) / (kMu - 1);
-    mus[k] = mu_max * u * u;  // dense near 0, where a truth far below detection sits
+  mus[0] = 0.0;
+  for (int k = 1; k < kMu; ++k) {
+    const double u = static_cast<double>(k - (window > 0 ? 1 : 0)) / (kMu - 1 - (window > 0 ? 1 : 0));
+    mus[k] = window > 0 ? window + (mu_max - window) * u : mu_max * u * u;
   }
   auto logf = [&](double xv, int k) { return v.logDensity(xv, mus[k]); };
   // The best mu >= 0 for a value xv: 0 for xv <= 0; above, a golden-section search on [0, 2 xv + s0] (the density's
@@ -142,8 +147,9 @@ void unifiedInterval(double x, const VarianceModel& v, double confidence, double
     *hi = xp + mus[1];
     return;
   }
-  // each accepted grid point stands for the half-way marks to its neighbours
-  *lo = first == 0 ? 0.0 : 0.5 * (mus[first - 1] + mus[first]);
+  // each accepted grid point stands for the half-way marks to its neighbours (not across the gap from 0 to the
+  // window)
+  *lo = first == 0 ? 0.0 : (first == 1 && window > 0 ? mus[1] : 0.5 * (mus[first - 1] + mus[first]));
   *hi = last == kMu - 1 ? mu_max : 0.5 * (mus[last] + mus[last + 1]);
   // the grid's half-cells: the constrained estimate itself always lies inside
   *lo = std::min(*lo, xp);

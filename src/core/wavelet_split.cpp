@@ -482,7 +482,7 @@ struct QnEstimate {
 // line falls like (f_split / f_saw)^2, so that is the allowance on the share, times the white lost fraction 1 - V_Q.
 // No free constant; the form was chosen on tuning records (seeds 1-2 of the simulator, coverage_study seeds 1-20),
 // where the share's actual error was ~0.25 at f_saw / f_split = 2.1 (2 deg/h) and 0.03-0.07 at 5-8
-// (docs/calibration.md, "Q of a sawtooth").
+// (docs/wavelet_split.md).
 double sawtoothSkirt(double q2, double mean_rate_abs, double split_frequency_hz) {
   const double f_saw = q2 > 0 ? mean_rate_abs / std::sqrt(12.0 * q2) : 0.0;
   return f_saw > 0 ? std::min(1.0, std::pow(split_frequency_hz / f_saw, 2)) : 1.0;
