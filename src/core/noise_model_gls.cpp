@@ -301,11 +301,11 @@ struct GlsFit {
     return nrm > 0 ? Eigen::VectorXd(CiF * inv.col(k) / nrm) : Eigen::VectorXd();
   }
 
-  // sd of that estimate when the column's true weight is mu and the others are at the fit: the weights stay those
-  // of the fit (they are what the estimate used), the scatter of y is the covariance at mu (a sandwich).
-  double sdAt(const Eigen::VectorXd& g, int col, double mu) const {
+  // sd of that estimate when the column's true weight is mu and the other columns' are `at`: the weights stay those
+  // of the fit (they are what the estimate used), the scatter of y is the covariance at that truth (a sandwich).
+  double sdAt(const Eigen::VectorXd& g, int col, double mu, const Eigen::VectorXd& at) const {
     if (g.size() == 0) return std::numeric_limits<double>::quiet_NaN();
-    Eigen::VectorXd cm = c;
+    Eigen::VectorXd cm = at;
     cm[col] = std::max(0.0, mu);
     const double var = g.dot(P.covariance(cm) * g);
     return std::sqrt(std::max(0.0, var * r.uncertainty_inflation));
@@ -321,41 +321,74 @@ struct GlsFit {
   void coefficients(const Whitened& w) {
     sd0.assign(static_cast<size_t>(ncol), 0.0);
     constexpr double kZ95 = 1.959963984540054;
-    for (int col = 0; col < ncol; ++col) {
+    auto longTau = [&](int k) {
+      const int t = P.term[static_cast<size_t>(k)];
+      return t == kBiasInstability || t == kRateRandomWalk || t == kRateRamp;
+    };
+    std::vector<double> lo68(static_cast<size_t>(ncol)), hi68(lo68), lo95(lo68), hi95(lo68), sd(lo68);
+    // One term's estimate, sd and intervals with the other columns' truth at `at` for the sandwich.
+    auto interval = [&](int col, const Eigen::VectorXd& at) {
+      // The estimate's columns: the fit's positive ones and the term itself; for a positive B, K or R every enabled
+      // one of the three, held at 0 or not, since they trade at the longest taus. (A term at 0 is a bound: the
+      // boundary statistic of its free value beside the positive terms.)
       std::vector<int> cols = pos;
       if (!(c[col] > 0)) cols.push_back(col);
+      if (longTau(col) && c[col] > 0)
+        for (int k : ieee_cols)
+          if (longTau(k) && std::find(cols.begin(), cols.end(), k) == cols.end()) cols.push_back(k);
       const int k = static_cast<int>(std::find(cols.begin(), cols.end(), col) - cols.begin());
       Eigen::VectorXd est;
       Eigen::MatrixXd cov;
       solveFree(w, cols, &est, &cov);
       const double x = c[col] > 0 ? c[col] : std::min(0.0, est[k]);
-      const double sd = std::sqrt(std::max(0.0, cov(k, k) * r.uncertainty_inflation));
-      sd0[static_cast<size_t>(col)] = sd;
-      double lo68, hi68, lo95, hi95;
-      if (options.intervals) {
-        const double m1 = std::max({x, sd, 1e-300});
-        const double mu[3] = {0.0, m1, m1 + 4.0 * std::max(sd, 0.25 * m1)};
-        double var[3];
-        const Eigen::VectorXd g = weightsOf(cols, k);
-        for (int i = 0; i < 3; ++i) {
-          const double s = sdAt(g, col, mu[i]);
-          var[i] = std::isfinite(s) && s > 0 ? s * s : sd * sd;
-        }
-        const VarianceModel vm = VarianceModel::through(mu, var);
-        unifiedInterval(x, vm, 0.6826894921370859, &lo68, &hi68);
-        unifiedInterval(x, vm, 0.95, &lo95, &hi95);
-      } else {  // values only (FitOptions::intervals)
-        lo68 = hi68 = lo95 = hi95 = std::numeric_limits<double>::quiet_NaN();
+      const size_t u = static_cast<size_t>(col);
+      sd[u] = std::sqrt(std::max(0.0, cov(k, k) * r.uncertainty_inflation));
+      if (!options.intervals) {  // values only (FitOptions::intervals)
+        lo68[u] = hi68[u] = lo95[u] = hi95[u] = std::numeric_limits<double>::quiet_NaN();
+        return;
       }
+      const Eigen::VectorXd g = weightsOf(cols, k);
+      const double s_at_x = sdAt(g, col, std::max(x, 0.0), at);
+      if (std::isfinite(s_at_x) && s_at_x > 0) sd[u] = s_at_x;
+      const double m1 = std::max({x, sd[u], 1e-300});
+      const double mu[3] = {0.0, m1, m1 + 4.0 * std::max(sd[u], 0.25 * m1)};
+      double var[3];
+      for (int i = 0; i < 3; ++i) {
+        const double s = sdAt(g, col, mu[i], at);
+        var[i] = std::isfinite(s) && s > 0 ? s * s : sd[u] * sd[u];
+      }
+      const VarianceModel vm = VarianceModel::through(mu, var);
+      unifiedInterval(x, vm, 0.6826894921370859, &lo68[u], &hi68[u]);
+      unifiedInterval(x, vm, 0.95, &lo95[u], &hi95[u]);
+    };
+    for (int col = 0; col < ncol; ++col) interval(col, c);
+    // A long-tau term the fit holds at 0 may still be up to its 68 % upper end, and its scatter then widens its
+    // positive partners' (with K at 0 the long-tau AVAR of a deterministic ramp looks almost noise-free, and R's
+    // interval would be far too narrow): their sandwich is taken with such terms at that upper end.
+    if (options.intervals) {
+      Eigen::VectorXd at = c;
+      bool raised = false;
+      for (int k : ieee_cols)
+        if (longTau(k) && !(c[k] > 0) && hi68[static_cast<size_t>(k)] > 0) {
+          at[k] = hi68[static_cast<size_t>(k)];
+          raised = true;
+        }
+      if (raised)
+        for (int col : ieee_cols)
+          if (longTau(col) && c[col] > 0) interval(col, at);
+    }
+    for (int col = 0; col < ncol; ++col) {
+      const size_t u = static_cast<size_t>(col);
+      sd0[u] = sd[u];
       Coefficient co;
       co.value = std::sqrt(std::max(0.0, c[col]));
-      co.lo68 = std::sqrt(lo68);
-      co.hi68 = std::sqrt(hi68);
-      co.lo95 = std::sqrt(lo95);
-      co.hi95 = std::sqrt(hi95);
-      co.supported = options.intervals ? lo95 > 0 : c[col] > kZ95 * sd;
-      co.sigma = co.supported ? sd / (2.0 * co.value) : co.hi68;  // delta method; a bound's: its 68 % upper end
-      const int t = P.term[static_cast<size_t>(col)];
+      co.lo68 = std::sqrt(lo68[u]);
+      co.hi68 = std::sqrt(hi68[u]);
+      co.lo95 = std::sqrt(lo95[u]);
+      co.hi95 = std::sqrt(hi95[u]);
+      co.supported = options.intervals ? lo95[u] > 0 : c[col] > kZ95 * sd[u];
+      co.sigma = co.supported ? sd[u] / (2.0 * co.value) : co.hi68;  // delta method; a bound's: its 68 % upper end
+      const int t = P.term[u];
       if (t < kNumTerms) {
         r.terms[static_cast<size_t>(t)] = co;
       } else {
