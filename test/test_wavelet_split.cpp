@@ -138,7 +138,8 @@ TEST(WaveletSplit, RecoversDeclaredQAndNDithered) {
     EXPECT_LT(r.removed_angle.half_mean_ratio, 0.1);
     EXPECT_GT(r.removed_arw_share, 0.0);
     EXPECT_LT(r.removed_arw_share, 0.02);
-    EXPECT_LT(r.fit_error.rms_log10, 0.05);
+    // The reported model follows the input curve where its interval is tight (EDF from the model, >= 20).
+    EXPECT_LE(r.fit_error.worst_adev_ratio, 1.25);
   }
 }
 

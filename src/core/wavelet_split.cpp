@@ -1,5 +1,6 @@
 // Wavelet split pipeline: wden split of the rate, oadev of both parts, Q from the removed part, N from coarse scales.
 #include "gyro_allan/wavelet_split.hpp"
+#include "gyro_allan/model_check.hpp"
 #include "gyro_allan/simulate.hpp"
 #include "gyro_allan/stats.hpp"
 
@@ -782,7 +783,15 @@ std::vector<double> modelOf(const DeviationCurve& c, const std::array<Coefficien
 void fitErrors(const DeviationCurve& raw_curve, WaveletSplitResult* r) {
   int n_params = 0;
   for (const auto& c : r->terms) n_params += c.value > 0 ? 1 : 0;
-  r->fit_error = fitError(raw_curve, modelOf(raw_curve, r->terms), std::vector<bool>(raw_curve.points.size(), true),
+  // The input curve's EDF from the reported model's dominant term at each tau (its own noise identification sees
+  // white PM everywhere on a quantization-dominated record and would call the longest taus tight).
+  FitResult reported;
+  reported.ok = true;
+  reported.terms = r->terms;
+  reported.tau0 = raw_curve.tau0;
+  reported.model_var = modelOf(raw_curve, r->terms);
+  const DeviationCurve with_edf = withModelEdf(raw_curve, reported);
+  r->fit_error = fitError(with_edf, modelOf(with_edf, r->terms), std::vector<bool>(with_edf.points.size(), true),
                           std::max(1, n_params), FitOptions{}.rms_min_edf);
   if (r->denoised_fit.ok) {
     r->denoised_fit_error.rms_log10 = r->denoised_fit.rms_log10;
