@@ -310,7 +310,7 @@ struct ReportedKnownTerm {
   std::string note;                  ///< what a filter must do about it, or why it is not in the model
 };
 
-/// The noise model of one axis as reported (noise_model.yaml "axes.<axis>", README "noise_model.yaml").
+/// The noise model of one axis as reported (noise_model.yaml "axes.<axis>", docs/outputs.md).
 struct ReportedNoiseModel {
   bool ok = false;
   std::string error;                 ///< why there is no model (the GMWM stage's message); the rest is empty
@@ -324,7 +324,7 @@ struct ReportedNoiseModel {
   // Flicker approximation: the GM terms stand in for the IEEE bias instability over the closed loop's tau range.
   int gauss_markov_terms = 0;
   double tau_min_s = 0, tau_max_s = 0;            ///< tau range of the closed-loop comparison [s]
-  double ieee_bias_instability = 0, ieee_bias_instability_sigma = 0;  ///< the IEEE fit's B (selection-corrected) [rad/s]
+  double ieee_bias_instability = 0, ieee_bias_instability_sigma = 0;  ///< the IEEE fit's reported B [rad/s]
   double worst_avar_ratio_vs_ieee_model = 1;      ///< max AVAR ratio GMWM / IEEE model (or inverse) over the range
   double worst_avar_ratio_vs_data = 1;            ///< the GMWM model's worst ADEV ratio vs the data, squared
   // Closed loop (gmwmCompare): each model's ADEV against the measured oadev.

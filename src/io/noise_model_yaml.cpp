@@ -1,4 +1,4 @@
-// Writes noise_model.yaml (the GMWM state-space bias model) and the GMWM summary lines; see README "noise_model.yaml".
+// Writes noise_model.yaml (the GMWM state-space bias model) and the GMWM summary lines; see docs/outputs.md "noise_model.yaml".
 #include "gyro_allan/io/noise_model_yaml.hpp"
 #include "gyro_allan/io/report.hpp"
 
@@ -194,7 +194,7 @@ std::string noiseModelYaml(const std::vector<AxisAnalysis>& axes, double filter_
                            const std::vector<std::string>& sources) {
   YAML::Emitter e;
   e.SetDoublePrecision(10);
-  e << YAML::Comment("gyro_allan GMWM bias model per axis; fields in README \"noise_model.yaml\"");
+  e << YAML::Comment("gyro_allan GMWM bias model per axis; fields in docs/outputs.md");
   e << YAML::Newline;
   e << noiseModelNode(axes, filter_rate_hz, sources);
   return std::string(e.c_str()) + "\n";

@@ -46,7 +46,7 @@ using namespace gyro_allan;
 
 namespace {
 
-// Exit codes (documented in README "analyze_bag").
+// Exit codes (documented in docs/outputs.md, "Exit codes and errors").
 constexpr int kExitOk = 0;
 constexpr int kExitUsage = 1;     // bad command line
 constexpr int kExitInput = 2;     // input unusable: missing file, wrong type, empty, corrupt
@@ -55,73 +55,56 @@ constexpr int kExitOutput = 4;    // cannot write the output
 constexpr int kExitBatchFailed = 5;  // --batch: at least one bag failed (its row in summary.csv says why)
 
 const char* kUsage = R"(usage: analyze_bag BAG [BAG...] [options]
-       analyze_bag --csv FILE --rate HZ [options]
+       analyze_bag BAG [BAG...] --angle-topic T [--angle-mode accumulated|increment] [options]
+       analyze_bag --csv FILE [--rate HZ] [options]
        analyze_bag --batch DIR [options]
 
-Gyro noise analysis: Allan deviation (overlapping, and other deviations on request) with confidence
-intervals, and the IEEE 952/647 noise-model fit (Q, N, B, K, R) per axis.
+Gyro noise analysis of a sensor at rest: Allan deviations with confidence intervals and the IEEE 952 noise
+coefficients Q, N, B, K, R per axis, with 68 % / 95 % intervals and a quality verdict.
 
 Input
-  BAG...                 rosbags with a sensor_msgs/Imu topic (several bags are stitched by time)
-  --topic T              the sensor_msgs/Imu topic (default: the only one in the bags)
-  --angle-topic T        read angles instead: a geometry_msgs/Vector3Stamped topic, angle per axis [rad]
-  --angle-mode M         accumulated (default: the angle) or increment (angle per sample), for --angle-topic and
-                         --input angle
-  --temperature-topic T  sensor_msgs/Temperature topic (default: the only one, if any; '-' = none)
+  BAG...                 rosbags with a sensor_msgs/Imu topic (several bags of one recording are stitched)
+  --topic T              sensor_msgs/Imu topic (default: the only one)
+  --angle-topic T        read angles instead: geometry_msgs/Vector3Stamped, angle per axis [rad]
+  --angle-mode M         accumulated (default) or increment (angle per sample); --angle-topic, --input angle
+  --temperature-topic T  sensor_msgs/Temperature topic for the model check (default: the only one; '-' = none)
   --bag-time             use the bag receive time instead of header.stamp
   --start S              skip the first S seconds (default 0)
   --duration S           analyse at most S seconds (default: all)
-  --csv FILE             a CSV or single-column text file instead of bags (.gz: gzip-compressed)
-  --rate HZ              sample rate of the CSV (required with --csv unless it has a time column)
-  --units U              CSV units: rad/s (default) or deg/s; for --input angle: rad or deg
-  --input K              rate (default) or angle (CSV angle samples, e.g. RLG/FOG pulse output; bags: --angle-topic)
-  --batch DIR            analyse every DIR/*.bag on its own into OUTPUT/<bag name>/ and write OUTPUT/summary.csv
-                         (one row per bag, sensor and axis; a failing bag is one row with its error)
+  --csv FILE             CSV (header t,wx,wy,wz, time optional) or one column per axis; .gz accepted
+  --rate HZ              sample rate (required for a CSV without a time column; default: from the stamps)
+  --units U              CSV units: rad/s (default) or deg/s; rad or deg with --input angle
+  --input K              CSV content: rate (default) or angle
+  --batch DIR            every DIR/*.bag on its own into OUTPUT/<bag>/, plus OUTPUT/summary.csv
 
 Analysis
-  --tau-grid G           octave | decade | all | log | log:K  (default log:10)
-  --deviations LIST      comma list of oadev,adev,mdev,hdev,ohdev,tdev,totdev,mtotdev,ttotdev written to allan.csv
-                         (default oadev; mtotdev/ttotdev cost ~60x an oadev)
-  --method M             auto | joint_fit | wavelet_split: whose coefficients are the answer (default auto:
-                         wavelet_split when quantization dominates the shortest tau, else joint_fit)
-  --method gmwm          also fit the GMWM state-space bias model (WN + Gauss-Markov terms + RW) and write
-                         DIR/noise_model.yaml (README "noise_model.yaml"); report.yaml's coefficients as for auto
+  --method M             auto (default) | joint_fit | wavelet_split | gmwm (auto + DIR/noise_model.yaml)
   --filter-rate HZ       noise_model.yaml: Phi/Qd also at this filter rate (implies --method gmwm)
-  --no-wavelet-split     skip the wavelet split (sym8 denoising, Allan variance of both parts)
+  --tau-grid G           octave | decade | all | log | log:K (default log:10)
+  --deviations LIST      deviations in allan.csv: oadev,adev,mdev,hdev,ohdev,tdev,totdev,mtotdev,ttotdev
+                         (default oadev; mtotdev and ttotdev cost ~60x an oadev)
+  --confidence C         two-sided confidence of the deviation intervals (default 0.683)
+  --gap-factor F         a stamp later than its slot by F - 1 periods is a gap (default 1.5)
+  --no-rest-check        skip the at-rest check (default: a moved record is cut to its longest static
+                         stretch of >= 60 s, or refused with exit 3)
+  --keep-spikes          keep isolated spikes (default: replaced and reported)
+  --no-wavelet-split     skip the wavelet split
   --no-model-check       skip the model check (residual -> missing effect -> refit)
-  --confidence C         two-sided confidence of the intervals (default 0.683)
-  --gap-factor F         an interval longer than F nominal periods is a gap (default 1.5)
-  --keep-spikes          do not remove isolated spikes (default: samples more than 10 robust sigmas from the median
-                         of their 16 neighbours, in runs of <= 3, are replaced before the analysis and reported with
-                         the with-spikes figure alongside; docs/spikes.md)
-  --no-rest-check        skip the at-rest check (default: a record in which the sensor moved is analysed only over
-                         its longest static stretch of >= 60 s, or refused with exit 3; docs/rest_detection.md)
-  --no-accel             skip the accelerometer (bags: linear_acceleration gets the same joint fit, mean removed)
+  --no-accel             skip the accelerometer (linear_acceleration)
+  -j, --jobs N           threads (default: one per core; 1 = sequential; same results)
 
 Output
-  --output DIR           output folder (default ./allan_out); created if missing
-  --format yaml|json     report format: DIR/report.yaml or DIR/report.json (default yaml)
-                         Always written: DIR/allan.csv (gyro axes x,y,z; accelerometer axes accel_x..z) and
-                         DIR/imu.yaml (Kalibr IMU noise parameters: N and K of gyro and accelerometer, update_rate,
-                         rostopic; a term the data does not support is written as the upper end of its 68 % interval)
-                         Uncertainties: generalized least squares with the analytic covariance of the overlapping
-                         Allan-variance estimates across tau (not a bootstrap); intervals and values conditional on
-                         the term selection (selective inference); report.yaml gives each coefficient's 68 % and
-                         95 % intervals and each term's chi-squared evidence (docs/calibration.md). Wavelet
-                         split of a quantization that is not white (an undithered pulse counter's sawtooth): Q and
-                         N corrected for the split's bias, and Q's interval, by a parametric bootstrap (10 records
-                         simulated from the fitted model; report.yaml sawtooth_bootstrap; docs/wavelet_split.md)
-  --kalibr-axis R        worst | mean: Kalibr's one value per term is the largest axis or the quadratic mean over
-                         axes (default worst)
-  --no-plot              do not run scripts/plot_allan.py (DIR/allan.png and DIR/allan.svg; needs /usr/bin/python3
-                         with matplotlib, a missing one is a one-line warning; environment GYRO_ALLAN_NO_PLOT=1
-                         does the same, e.g. for test suites)
-  --jobs N               analyse up to N axes at once on N threads (default: one per core; 1 = sequential)
-  --quiet                print nothing but errors
+  -o, --output DIR       output folder (default ./allan_out): report.yaml, allan.csv, imu.yaml, allan.png/svg
+  --format F             yaml (default) or json report
+  --kalibr-axis R        imu.yaml: worst (default: the largest axis) or mean (quadratic mean of the axes)
+  --no-plot              no allan.png/allan.svg (also GYRO_ALLAN_NO_PLOT=1)
+  -q, --quiet            print nothing but errors
   -h, --help             this text
 
-Exit codes: 0 ok, 1 bad command line, 2 unusable input, 3 data not analysable, 4 cannot write output,
-5 --batch: some bags failed.
+Exit codes: 0 ok, 1 bad command line, 2 unusable input, 3 not analysable (too short, or moving),
+4 cannot write the output, 5 --batch: some bags failed.
+
+Details: README.md; the files and fields: docs/outputs.md; methods: docs/ (fit.md, timeline.md, ...).
 )";
 
 struct Args {
@@ -446,7 +429,7 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
 
   ReportMeta meta;
   meta.tau_grid = tauGridName(opt.deviation.grid);
-  // --filter-rate implies --method gmwm (README), and the nodelet's ~save writes gmwm for auto + GMWM: the same here.
+  // --filter-rate implies --method gmwm (--help), and the nodelet's ~save writes gmwm for auto + GMWM: the same here.
   meta.method = (opt.gmwm && args.method == "auto") ? "gmwm" : args.method;
   std::vector<double> temp_t, temp_v;  // temperature series (bags with a sensor_msgs/Temperature topic)
   // Bags: samples and stamps held compactly (4 bytes each) until sanitized; accel = linear_acceleration, m/s^2.
@@ -582,7 +565,7 @@ std::string csvField(const std::string& v) {
 }
 
 /// --batch DIR: every DIR/*.bag (sorted by name) analysed on its own into OUTPUT/<bag name>/; OUTPUT/summary.csv has
-/// one row per bag, sensor and axis (coefficients in SI; unsupported terms 0, listed in `unsupported`) or one row with
+/// one row per bag, sensor and axis (fitted coefficients in SI; unsupported terms listed in `unsupported`) or one row with
 /// the error of a failing bag.
 int runBatch(const Args& args) {
   std::vector<std::string> bags;

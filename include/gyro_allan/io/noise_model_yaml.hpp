@@ -1,5 +1,5 @@
 // noise_model.yaml: the GMWM state-space bias model per gyro axis (continuous parameters, Phi/Qd at the data rate and
-// at a requested filter rate, the flicker-to-Gauss-Markov approximation and the closed-loop check); README documents it.
+// at a requested filter rate, the flicker-to-Gauss-Markov approximation and the closed-loop check); docs/outputs.md documents it.
 #pragma once
 
 #include <string>
@@ -11,7 +11,7 @@
 
 namespace gyro_allan {
 
-/// The reported model of one axis (a.has_gmwm): reportedNoiseModel (gmwm.hpp) with the IEEE fit's selection-corrected
+/// The reported model of one axis (a.has_gmwm): reportedNoiseModel (gmwm.hpp) with the IEEE fit's reported
 /// bias instability for the flicker comparison. noise_model.yaml and the nodelet's ~noise_model are both filled from it.
 ReportedNoiseModel axisNoiseModel(const AxisAnalysis& a, double filter_rate_hz);
 

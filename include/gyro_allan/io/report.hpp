@@ -33,7 +33,7 @@ struct ReportMeta {
   int64_t rest_excluded = 0;          ///< kept samples left out of the analysis as moving
 };
 
-/// The report as a YAML tree (schema in README "report.yaml").
+/// The report as a YAML tree (schema in docs/outputs.md "report.yaml").
 YAML::Node buildReport(const ReportMeta& meta, const std::vector<AxisAnalysis>& axes);
 /// YAML text or JSON text of a tree. JSON keeps the types the tree was built with (text from report.cpp's str()
 /// stays a string however it looks; numbers, integers and bools as such; NaN/inf as null).
@@ -43,7 +43,7 @@ YAML::Node yamlNumber(double v);
 
 std::string toYaml(const YAML::Node& node);
 std::string toJson(const YAML::Node& node);
-/// allan.csv: one row per (axis, deviation, tau); columns in README.
+/// allan.csv: one row per (axis, deviation, tau); columns in docs/outputs.md.
 std::string allanCsv(const std::vector<AxisAnalysis>& axes);
 /// Fixed-width summary in conventional units.
 std::string summaryTable(const std::vector<AxisAnalysis>& axes);

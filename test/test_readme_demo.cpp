@@ -1,0 +1,68 @@
+// The README's demo table is what the quick start prints: runs analyze_bag on bags/default.bag as
+// scripts/quickstart.sh does and checks that README.md holds the gyro coefficient table (header and x, y, z rows)
+// verbatim, inside a fenced code block. When the fit changes, re-run the quick start and copy its table.
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "cli_util.hpp"
+
+namespace {
+
+const std::string kTools = GYRO_ALLAN_TOOL_DIR;
+const std::string kSource = GYRO_ALLAN_SOURCE_DIR;
+const std::string kOut = std::string(GYRO_ALLAN_TEST_OUT) + "/readme_demo";
+
+std::vector<std::string> lines(const std::string& s) {
+  std::vector<std::string> v;
+  std::istringstream in(s);
+  for (std::string l; std::getline(in, l);) v.push_back(l);
+  return v;
+}
+
+/// The gyro table of analyze_bag's summary: the header line ("axis  Q [arcsec] ...") and the lines after it up to
+/// the legend line "(value +- 1 sigma ...)": one row per axis, and a "BAD FIT: ..." line before a bad axis's row.
+std::vector<std::string> gyroTable(const std::string& out) {
+  const std::vector<std::string> all = lines(out);
+  std::vector<std::string> table;
+  for (size_t i = 0; i < all.size(); ++i) {
+    if (all[i].rfind("axis  Q [", 0) != 0) continue;
+    table.push_back(all[i]);
+    for (size_t j = i + 1; j < all.size() && !all[j].empty() && all[j][0] != '('; ++j) table.push_back(all[j]);
+    break;
+  }
+  return table;
+}
+
+TEST(ReadmeDemo, TableIsWhatTheQuickStartPrints) {
+  ASSERT_EQ(std::system(("mkdir -p " + kOut).c_str()), 0);
+  setenv("GYRO_ALLAN_NO_PLOT", "1", 1);  // the plot does not change the printed table
+  // scripts/quickstart.sh: `analyze_bag bags/default.bag --output out/default` from the source tree.
+  const gyro_allan_test::ToolRun r = gyro_allan_test::runTool(
+      "cd '" + kSource + "' && '" + kTools + "/analyze_bag' bags/default.bag --output '" + kOut + "/out'", kOut);
+  ASSERT_EQ(r.code, 0) << r.err;
+
+  const std::vector<std::string> table = gyroTable(r.out);
+  ASSERT_GE(table.size(), 4u) << "no gyro table in the output:\n" << r.out;
+  int rows = 0;
+  for (const auto& l : table) rows += l.rfind("x ", 0) == 0 || l.rfind("y ", 0) == 0 || l.rfind("z ", 0) == 0;
+  EXPECT_EQ(rows, 3) << r.out;
+
+  const std::string readme = gyro_allan_test::slurp(kSource + "/README.md");
+  ASSERT_FALSE(readme.empty()) << kSource + "/README.md";
+  std::string block;
+  for (const auto& l : table) block += l + "\n";
+  const size_t at = readme.find(block);
+  ASSERT_NE(at, std::string::npos) << "README.md does not hold the quick start's table verbatim; it prints:\n"
+                                   << block;
+  EXPECT_TRUE(at == 0 || readme[at - 1] == '\n') << "the table's header must start a line";
+  // Inside a fenced code block: an odd number of ``` fence lines before it.
+  int fences = 0;
+  for (const auto& l : lines(readme.substr(0, at))) fences += l.rfind("```", 0) == 0;
+  EXPECT_EQ(fences % 2, 1) << "the table must be inside a fenced code block";
+}
+
+}  // namespace
