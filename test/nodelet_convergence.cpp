@@ -79,10 +79,11 @@ class Harness {
       data_[a] = gyro_allan::simulateAxis(noise, kRate, n, 42, a);
     }
     // Arrival-time stamps of a driver that stamps on receipt: up to half a period late, 1 % held back 2-10
-    // periods with a burst behind them (as offsets from the sample times, for jittered(true)).
+    // periods with a burst behind them read at once (the burst shares one stamp), as offsets from the sample times,
+    // for jittered(true).
     std::vector<double> t(static_cast<size_t>(n));
     for (int64_t k = 0; k < n; ++k) t[static_cast<size_t>(k)] = k / kRate;
-    const std::vector<double> r = gyro_allan::receiptStamps(t, 1.0 / kRate, 0.5, 0.01, 7);
+    const std::vector<double> r = gyro_allan::receiptStamps(t, 1.0 / kRate, 0.5, 0.01, 7, true);
     delay_.resize(t.size());
     for (size_t k = 0; k < t.size(); ++k) delay_[k] = r[k] - t[k];
   }
@@ -194,8 +195,9 @@ TEST(NodeletConvergence, ConvergesReactsAndRecovers) {
   EXPECT_GE(h.level("quality verdict"), OK) << "quality verdict status missing";
   EXPECT_LE(h.level("quality verdict"), WARN) << h.message("quality verdict");
 
-  // A2. Arrival-time stamps (jitter up to half a period, 1 % of samples late by 2-10 periods with a burst
-  // behind): the grid places the samples; no gap, no stamp warning, one segment, N still converged.
+  // A2. Arrival-time stamps (jitter up to half a period, 1 % of samples late by 2-10 periods with a burst behind
+  // them sharing one stamp): the grid places the samples, none is a duplicate; no gap, no stamp warning, one
+  // segment, N still converged.
   h.clearMax();
   h.jittered(true);
   const int before_jitter = h.reports();

@@ -98,6 +98,7 @@ TEST(NodeletSoak, NothingLostMemoryFlatDiagnosticsConsistent) {
   const int per_tick = static_cast<int>(rate / 100);
   const int64_t ticks = static_cast<int64_t>(duration * 100);
   long rss_start = 0, rss_peak = 0;
+  double last[3] = {0, 0, 0};  // the last valid sample's values (a duplicate resends them with its stamp)
   ros::WallRate tick(100);
   const ros::WallTime wall0 = ros::WallTime::now();
   for (int64_t t = 0; t < ticks && ros::ok(); ++t) {
@@ -114,7 +115,7 @@ TEST(NodeletSoak, NothingLostMemoryFlatDiagnosticsConsistent) {
           case kSat: s.publish(s.stamp(k++), 0, 0, 20.0); break;
           case kZero: s.publish(ros::Time(0, 0), 0, 0, 0); break;
           case kOoo: s.publish(s.stamp(k - 3), 0, 0, 0); break;
-          case kDup: s.publish(s.stamp(k - 1), 0, 0, 0); break;
+          case kDup: s.publish(s.stamp(k - 1), last[0], last[1], last[2]); break;  // the last sample resent
           default: {
             geometry_msgs::Vector3Stamped a;
             a.header.stamp = s.stamp(k);
@@ -123,7 +124,8 @@ TEST(NodeletSoak, NothingLostMemoryFlatDiagnosticsConsistent) {
         }
         continue;
       }
-      s.publish(s.stamp(k++), g(rng), g(rng), g(rng));
+      for (double& v : last) v = g(rng);
+      s.publish(s.stamp(k++), last[0], last[1], last[2]);
       ++valid;
     }
     if (t == 1200) rss_start = rssKb(pid);  // 12 s in: the 10 s window is full, queues in steady state

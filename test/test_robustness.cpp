@@ -106,7 +106,8 @@ TEST(Sanitize, CountsAlwaysAddUpUnderRandomStampDamage) {
     ASSERT_EQ(accounted(s.report), n) << "trial " << trial;
     ASSERT_EQ(s.t.size(), s.v[0].size());
     ASSERT_EQ(s.t.size(), s.v[1].size());
-    for (size_t i = 1; i < s.t.size(); ++i) ASSERT_GT(s.t[i], s.t[i - 1]) << "trial " << trial;
+    // Kept stamps never go back (equal ones are one buffered read: equal stamps, other values).
+    for (size_t i = 1; i < s.t.size(); ++i) ASSERT_GE(s.t[i], s.t[i - 1]) << "trial " << trial;
     for (double v : s.v[0]) ASSERT_TRUE(std::isfinite(v));
   }
 }

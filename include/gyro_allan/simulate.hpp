@@ -53,9 +53,10 @@ std::vector<double> simulateAxis(const AxisNoise& noise, double rate_hz, int64_t
 
 /// Arrival-time stamps of a driver that stamps on receipt: each sample time t[i] delayed by a uniform 0..jitter
 /// periods, and a fraction `late` of samples held back a further 2..10 periods together with everything queued
-/// behind them (a burst follows); order is kept. Deterministic by seed. jitter >= 0, 0 <= late < 1.
+/// behind them (a burst follows); order is kept. batched: the burst is one buffered read and its samples share the
+/// held-back sample's stamp (otherwise they are 1 us apart). Deterministic by seed. jitter >= 0, 0 <= late < 1.
 std::vector<double> receiptStamps(const std::vector<double>& t, double period, double jitter, double late,
-                                  uint64_t seed);
+                                  uint64_t seed, bool batched = false);
 
 /// A sensor picked up and put back tilted: a half-sine rotation about x of peak rate `peak` [rad/s] from `start` for
 /// `duration` s (times as in t), added to gyro_x; gravity g on +z in the accelerometer tilts by the integrated angle

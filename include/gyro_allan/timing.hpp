@@ -47,7 +47,7 @@ struct Segment {
 };
 
 struct SanitizedSeries {
-  std::vector<double> t;                    ///< kept stamps, s
+  std::vector<double> t;                    ///< kept stamps, s (non-decreasing: a buffered read repeats one)
   std::array<std::vector<double>, 3> v;     ///< kept values per axis (unused axes stay empty)
   std::vector<Segment> segments;            ///< gap-free runs over the kept arrays
   StampReport report;
@@ -89,7 +89,7 @@ struct SanitizeOptions {
 /// Sampler period from stamps alone: the median over blocks of consecutive stamps of (last - first) / (count - 1).
 /// Robust to arrival-time jitter and bursts (a block's end points carry the jitter once, divided by the block
 /// length) and to a minority of blocks holding gaps. Blocks of 64 stamps (fewer for short series); only
-/// increasing stamps count. 0 when fewer than 2 usable stamps.
+/// non-decreasing stamps count (equal ones: a buffered read stamped once). 0 when fewer than 2 usable stamps.
 double estimatePeriod(const std::vector<double>& t, size_t block = 64);
 
 /// What StampGrid decided about one stamp.
@@ -110,7 +110,9 @@ struct StampDecision {
 /// envelope of the stamps: lowered by any kept stamp that arrives before its slot, raised to the earliest arrival
 /// of the lookahead, so slow clock drift is followed). Rules, applied to the oldest pending stamp once the
 /// lookahead's newer stamps are known — the same in analyze_bag and the nodelet:
-/// - equal to the last kept stamp: Duplicate; earlier: OutOfOrder;
+/// - equal to the previous stamp and pushed as a new sample (`batched`: a driver that stamps every sample of one
+///   buffered read with the read's time): placed on the grid like any late arrival;
+/// - otherwise equal to the last kept stamp: Duplicate; earlier: OutOfOrder;
 /// - more than half a period before its slot (more samples than slots): TooClose;
 /// - otherwise Keep; if every stamp of the lookahead (taken in consecutive pairs, so one early stamp cannot hide
 ///   it) is later than its slot by more than (gap_factor - 1) periods, round(lag / period) slots were skipped:
@@ -120,7 +122,9 @@ class StampGrid {
  public:
   /// period > 0 s; gap_factor > 1; lookahead_s >= 0 (at least 32 stamps are always looked ahead).
   StampGrid(double period, double gap_factor = 1.5, double lookahead_s = 2.0);
-  void push(double stamp, uint64_t tag = 0);
+  /// batched: the sample differs from the previous one although its stamp may equal the previous stamp (a
+  /// buffered read); an equal stamp then takes a slot instead of being a duplicate.
+  void push(double stamp, uint64_t tag = 0, bool batched = false);
   /// The oldest pending stamp's decision, once it can be made (enough newer stamps, or finish()); false if none.
   bool pop(StampDecision* d);
   /// No more input: every pending stamp can be decided. A push() after finish() starts a new timeline.

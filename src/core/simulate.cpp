@@ -196,7 +196,7 @@ SimulatedData simulate(const SimulationSpec& spec) {
 }
 
 std::vector<double> receiptStamps(const std::vector<double>& t, double period, double jitter, double late,
-                                  uint64_t seed) {
+                                  uint64_t seed, bool batched) {
   if (!(period > 0) || !(jitter >= 0) || !(late >= 0 && late < 1) || !std::isfinite(jitter))
     throw std::invalid_argument("receiptStamps: period > 0, jitter >= 0 and 0 <= late < 1 expected");
   Rng rng(mixSeed(seed, 99));
@@ -206,7 +206,8 @@ std::vector<double> receiptStamps(const std::vector<double>& t, double period, d
     double a = t[i] + rng.uniform() * jitter * period;
     if (late > 0 && rng.uniform() < late) queue_until = std::max(queue_until, t[i] + (2.0 + 8.0 * rng.uniform()) * period);
     if (a < queue_until) a = queue_until;  // held back: arrives with the burst
-    if (i > 0 && !(a >= out[i - 1] + 1e-6)) a = out[i - 1] + 1e-6;  // a queue keeps the order, 1 us apart
+    const double gap = batched ? 0.0 : 1e-6;  // a queue keeps the order: one read's stamp, or 1 us apart
+    if (i > 0 && !(a >= out[i - 1] + gap)) a = out[i - 1] + gap;
     out[i] = a;
   }
   return out;

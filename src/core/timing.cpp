@@ -160,8 +160,8 @@ double estimatePeriodImpl(size_t n, At at, size_t block) {
   const size_t b = std::max<size_t>(2, std::min(std::max<size_t>(2, block), std::max<size_t>(8, n / 16)));
   const size_t n_blocks = n / b;
   const size_t stride = std::max<size_t>(1, n_blocks / 2048);
-  // Least-squares slope of stamp against index per block: unbiased for packet-wise delivery of any packet size. A
-  // block with a stamp not later than its predecessor (stale, duplicate) is skipped.
+  // Least-squares slope of stamp against index per block: unbiased for packet-wise delivery of any packet size
+  // (equal stamps of one buffered read included). A block with a stamp earlier than its predecessor is skipped.
   const double kbar = 0.5 * static_cast<double>(b - 1);
   double sxx = 0;
   for (size_t k = 0; k < b; ++k) sxx += (static_cast<double>(k) - kbar) * (static_cast<double>(k) - kbar);
@@ -173,7 +173,7 @@ double estimatePeriodImpl(size_t n, At at, size_t block) {
     bool ok = std::isfinite(t0);
     for (size_t k = 0; k < b && ok; ++k) {
       const double x = at(i + k);
-      ok = std::isfinite(x) && x > prev;
+      ok = std::isfinite(x) && x >= prev;
       prev = x;
       sxy += (static_cast<double>(k) - kbar) * (x - t0);
     }
@@ -209,7 +209,7 @@ void StampGrid::reset() {
   shift_ = 0;
 }
 
-void StampGrid::push(double stamp, uint64_t tag) {
+void StampGrid::push(double stamp, uint64_t tag, bool batched) {
   if (finished_) reset();
   if (!have_origin_) {
     origin_ = stamp;
@@ -219,7 +219,7 @@ void StampGrid::push(double stamp, uint64_t tag) {
   e.t = stamp - origin_;
   e.tag = tag;
   e.seq = next_seq_++;
-  if (have_newest_ && !(e.t > newest_)) {
+  if (have_newest_ && !(e.t > newest_) && !(batched && e.t == newest_)) {
     e.pos = -1;  // not later than an earlier stamp: decided as duplicate / out of order, takes no position
     e.u = 0;
   } else {
@@ -264,7 +264,7 @@ bool StampGrid::pop(StampDecision* d) {
   d->index = 0;
   d->missing = 0;
   d->lag = 0;
-  if (e.pos < 0 || (have_kept_ && !(e.t > last_kept_))) {
+  if (e.pos < 0 || (have_kept_ && e.t < last_kept_)) {
     d->verdict = (have_kept_ && e.t == last_kept_) ? StampVerdict::Duplicate : StampVerdict::OutOfOrder;
     return true;
   }
@@ -487,7 +487,11 @@ struct GridPass {
       StampGrid grid(period, options.gap_factor, options.lookahead_s);
       StampDecision d;
       for (size_t k = 0; k < idx.size(); ++k) {
-        grid.push(t[idx[k]], idx[k]);
+        // A stamp equal to the previous one on a sample with other values is a buffered read, not a repeat.
+        bool batched = false;
+        if (k > 0 && t[idx[k]] == t[idx[k - 1]])
+          for (const auto* a : axes) batched = batched || (*a)[idx[k]] != (*a)[idx[k - 1]];
+        grid.push(t[idx[k]], idx[k], batched);
         while (grid.pop(&d)) handle(d);
       }
       grid.finish();

@@ -47,6 +47,7 @@ Output:
   --start-time T            stamp of the first sample, s since epoch (default 1700000000)
   --stamp-jitter F          stamp on arrival: delay each stamp by a uniform 0..F periods (default 0)
   --late-fraction P         ... and hold back a fraction P of samples 2..10 periods (a burst follows; default 0)
+  --batched-stamps          ... the burst is one buffered read: its samples share one stamp
 Not at rest (for testing the at-rest check):
   --bump-time T --bump-duration D --bump-rate W
                             the sensor is picked up at T s for D s: half-sine rotation about x, peak W rad/s,
@@ -70,6 +71,7 @@ int main(int argc, char** argv) {
   AxisNoise a;
   std::string output, topic = "/imu", frame = "imu_link", compression = "lz4";
   double accel_noise = 1e-3, accel_lsb = 0, start_time = 1700000000.0, stamp_jitter = 0, late_fraction = 0;
+  bool batched_stamps = false;
   double bump_time = 0, bump_duration = 0, bump_rate = 0;
   for (int i = 1; i < argc; ++i) {
     const std::string s = argv[i];
@@ -116,6 +118,7 @@ int main(int argc, char** argv) {
     else if (s == "--bump-duration") bump_duration = num(s, v());
     else if (s == "--bump-rate") bump_rate = num(s, v());
     else if (s == "--late-fraction") late_fraction = num(s, v());
+    else if (s == "--batched-stamps") batched_stamps = true;
     else {
       std::cerr << "simulate: error: unknown option " << s << " (see --help)\n";
       return 1;
@@ -135,7 +138,7 @@ int main(int argc, char** argv) {
     d = simulate(spec);
     // The stamps a receipt-stamping driver would give (the samples stay evenly spaced; only their stamps move).
     if (stamp_jitter > 0 || late_fraction > 0)
-      d.t = receiptStamps(d.t, 1.0 / spec.rate_hz, stamp_jitter, late_fraction, spec.seed);
+      d.t = receiptStamps(d.t, 1.0 / spec.rate_hz, stamp_jitter, late_fraction, spec.seed, batched_stamps);
   } catch (const std::exception& e) {
     std::cerr << "simulate: error: " << e.what() << "\n";
     return 1;
