@@ -303,6 +303,32 @@ TEST(ModelCheck, SinusoidFound) {
   }
 }
 
+TEST(ModelCheck, SlowSinusoidFound) {
+  // The slow-line cases of a 20 min, 100 Hz gyro (N 2e-4 rad/sqrt(s), B 5e-6 rad/s) with a 2e-4 rad/s sinusoid,
+  // from 0.1 Hz down to six periods per record: a sinusoid each time (not a Gauss-Markov process), its frequency
+  // within 3 reported sigma and 1 %, its amplitude within 20 %, and the fit error down at least 5x.
+  for (double f : {0.1, 0.037, 0.012, 0.005}) {
+    AxisNoise a;
+    a.angle_random_walk = 2e-4;
+    a.bias_instability = 5e-6;
+    a.sine_frequency = f;
+    a.sine_amplitude = 2e-4;
+    const Outcome o = run(a, 100.0, 1200.0, 4);
+    ASSERT_TRUE(o.mc.ok) << o.mc.message;
+    const DetectedEffect* sine = nullptr;
+    for (const auto& e : o.mc.effects) {
+      EXPECT_NE(e.type, "gauss_markov") << "f " << f;
+      if (e.type == "sinusoid") sine = &e;
+    }
+    ASSERT_NE(sine, nullptr) << "f " << f;
+    const EffectParameter fp = sine->parameters.at("frequency_hz");
+    EXPECT_LE(std::fabs(fp.value - f), 3 * fp.sigma) << "f " << f << " sigma " << fp.sigma;
+    EXPECT_NEAR(fp.value, f, 0.01 * f);
+    EXPECT_NEAR(std::fabs(param(*sine, "amplitude")), 2e-4, 0.2 * 2e-4) << "f " << f;
+    EXPECT_LE(5 * o.mc.after.rms_log10, o.mc.before.rms_log10) << "f " << f;
+  }
+}
+
 TEST(ModelCheck, GaussMarkovFound) {
   // Tc = 10 s (100 Hz, 1 h) and Tc = 100 s (10 Hz, 30000 s): Tc within 30 %, sigma within 20 %, the refit explains
   // the curve.

@@ -112,6 +112,10 @@ struct ModelCheckOptions {
   double structured_alpha = 0.01;
   double psd_min_prominence_db = 8.0;
   int psd_max_peaks = 3;
+  /// Lines below the fine Welch PSD's search band, down to this many periods per record, from the whole-record
+  /// periodogram (findSlowLines) at this family-wise false-alarm probability; at most psd_max_peaks of them.
+  double line_min_periods = 4.0;
+  double line_false_alarm = 0.01;
   double step_min_z = 6.0;          ///< block-mean difference in robust sigmas
   double acf_min_z = 5.0;           ///< lag-1 correlation in units of 1/sqrt(n)
   double thermal_min_z = 5.0;       ///< rate-vs-temperature slope in sigmas

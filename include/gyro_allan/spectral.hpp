@@ -28,6 +28,7 @@ struct SpectralPeak {
   double amplitude = 0;      ///< sqrt(2 power): the amplitude of an equivalent sinusoid
   double bandwidth_hz = 0;   ///< width of the feature where the excess exceeds half its maximum (>= df)
   double df = 0;             ///< resolution of the PSD it was found in
+  double floor = 0;          ///< local floor (running median) at the peak, units^2/Hz
   std::vector<double> profile_f;  ///< bins of the feature (Hz)
   std::vector<double> profile_p;  ///< their excess power over the floor (units^2, sums to `power`)
 };
@@ -35,6 +36,33 @@ struct SpectralPeak {
 /// Peaks at least min_prominence_db above the running median of +-halfwidth bins (halfwidth chosen from the PSD
 /// size), strongest first, at most max_peaks, one per feature. Bins below 6 df are not searched.
 std::vector<SpectralPeak> findPsdPeaks(const Psd& psd, double min_prominence_db, int max_peaks);
+
+/// A sinusoid A cos(2 pi f t + phi) in a record, its frequency and amplitude from least squares on the samples.
+/// Sigmas are the Cramer-Rao bounds for a line in locally white noise of one-sided PSD S over the record length T:
+/// sigma_A^2 = S / T, sigma_f^2 = 3 S / (pi^2 A^2 T^3).
+struct SpectralLine {
+  double frequency_hz = 0, frequency_sigma_hz = 0;
+  double amplitude = 0, amplitude_sigma = 0;  ///< units of x
+  double noise_psd = 0;     ///< S, one-sided, units^2/Hz
+  double power_ratio = 0;   ///< periodogram of the whole record at the line over the noise level: A^2 T / (2 S)
+  double false_alarm = 1;   ///< chance that noise alone gives a peak this high somewhere in the band searched
+  int frequencies = 0;      ///< independent frequencies (whole-record bins) in that band
+};
+
+/// Refines a line near f0 by least squares on the samples x (rate fs): the frequency within f0 +- half_width that
+/// maximizes the whole-record periodogram (a zoom transform: x shifted by -f0 and averaged over blocks short enough
+/// for that band, then golden-section search), then amplitude by linear least squares (mean, trend, cos, sin) on
+/// every sample at that frequency. noise_psd: S at the line, for the sigmas.
+SpectralLine refineLine(const std::vector<double>& x, double fs, double f0, double half_width, double noise_psd);
+
+/// Lines between f_lo and f_hi (f_hi well below fs/2; meant for the band under a Welch search's resolution, down to
+/// a few periods per record): periodogram of the whole record (block means, so that f_hi is an eighth of their
+/// rate; 4x zero padding), noise level by a robust quadratic fit of log periodogram against log frequency, peaks
+/// whose family-wise false-alarm probability over the band's independent frequencies is below `false_alarm`,
+/// strongest first (at most max_lines, 2 bins apart), each refined by refineLine. Empty when the band holds fewer
+/// than 8 bins.
+std::vector<SpectralLine> findSlowLines(const std::vector<double>& x, double fs, double f_lo, double f_hi,
+                                        double false_alarm, int max_lines);
 
 /// Biased autocovariance (mean removed, divided by n) at lags 0..max_lag, by FFT.
 std::vector<double> autocovariance(const std::vector<double>& x, int64_t max_lag);

@@ -652,7 +652,10 @@ struct SpectralFeatures {
   std::vector<SpectralPeak> peaks;
   std::vector<bool> broad;            // wider than 4 bins at the finest resolution it was seen at: not a line
   std::vector<FeatureExcess> excess;  // parallel to peaks (ok only for measured broad features)
+  std::vector<SpectralLine> lines;    // lines refined on the samples: the slow ones, then the Welch lines (parallel
+  std::vector<int> line_of_peak;      // to peaks: index in lines, -1 for a broad feature)
   int64_t coarse = 0;                 // segment length of the coarse PSD
+  int64_t fine = 0;                   // segment length of the fine PSD
 };
 
 // Welch PSD peaks at a fine and a coarse resolution, the same feature found at both merged.
@@ -660,6 +663,7 @@ SpectralFeatures findSpectralFeatures(const CheckInput& in) {
   const int64_t n = in.n;
   SpectralFeatures sf;
   const int64_t fine = std::min<int64_t>(pow2Below(n / 8), 65536);
+  sf.fine = fine;
   sf.coarse = std::min<int64_t>(1024, pow2Below(n / 32));
   std::vector<SpectralPeak> all;
   for (int64_t seg : {fine, sf.coarse}) {
@@ -740,28 +744,107 @@ void measureBroadFeatures(const CheckInput& in, SpectralFeatures* sf) {
   }
 }
 
+// Lines refined on the samples. From line_min_periods per record up to 32 bins of the fine Welch PSD: the
+// whole-record periodogram (findSlowLines). The Welch search starts at 6 of its bins and needs a line to stand 8 dB
+// above its floor, ~14 periods per segment for a line at the white-noise ADEV of tau = 0.37/f; the whole record
+// sees such a line ~8x more strongly, and the band overlaps the Welch one. A Welch peak within two of its bins of such a line is the same line; a slow line inside a broad
+// Welch feature is part of it and dropped. Every other Welch line is refined on the samples within +-1.5 of its bins
+// (refineLine), its noise level the PSD floor there.
+void refineLines(const CheckInput& in, SpectralFeatures* sf) {
+  const double f_lo = in.opts.line_min_periods / in.T;
+  const double f_hi = std::min(32.0 * in.fs / static_cast<double>(sf->fine), 0.45 * in.fs);
+  std::vector<SpectralLine> slow;
+  if (sf->fine >= 64 && f_hi > f_lo)
+    slow = findSlowLines(in.rate, in.fs, f_lo, f_hi, in.opts.line_false_alarm, in.opts.psd_max_peaks);
+  std::vector<SpectralPeak> peaks;
+  std::vector<bool> broad;
+  std::vector<FeatureExcess> excess;
+  std::vector<bool> slow_kept(slow.size(), true);
+  for (size_t k = 0; k < sf->peaks.size(); ++k) {
+    const SpectralPeak& pk = sf->peaks[k];
+    bool same = false;
+    for (size_t s = 0; s < slow.size(); ++s) {
+      const double sep = std::fabs(slow[s].frequency_hz - pk.frequency_hz);
+      if (sf->broad[k] && sep <= std::max(pk.bandwidth_hz, 2 * pk.df)) slow_kept[s] = false;
+      if (!sf->broad[k] && sep <= 2 * pk.df) same = true;
+    }
+    if (same) continue;
+    peaks.push_back(pk);
+    broad.push_back(sf->broad[k]);
+    excess.push_back(sf->excess[k]);
+  }
+  sf->lines.clear();
+  sf->line_of_peak.clear();
+  std::vector<SpectralPeak> out_peaks;
+  std::vector<bool> out_broad;
+  std::vector<FeatureExcess> out_excess;
+  for (size_t s = 0; s < slow.size(); ++s) {
+    if (!slow_kept[s]) continue;
+    SpectralPeak pk;  // the slow line as a feature of its own periodogram (one bin of width 1/T)
+    pk.frequency_hz = slow[s].frequency_hz;
+    pk.df = 1.0 / in.T;
+    pk.bandwidth_hz = pk.df;
+    pk.amplitude = slow[s].amplitude;
+    pk.prominence_db = 10.0 * std::log10(slow[s].power_ratio);
+    out_peaks.push_back(pk);
+    out_broad.push_back(false);
+    out_excess.push_back(FeatureExcess{});
+    sf->line_of_peak.push_back(static_cast<int>(sf->lines.size()));
+    sf->lines.push_back(slow[s]);
+  }
+  for (size_t k = 0; k < peaks.size(); ++k) {
+    out_peaks.push_back(peaks[k]);
+    out_broad.push_back(broad[k]);
+    out_excess.push_back(excess[k]);
+    const bool line = !broad[k] && peaks[k].bandwidth_hz <= 4 * peaks[k].df;
+    if (line && peaks[k].floor > 0 && peaks[k].frequency_hz > 1.5 * peaks[k].df &&
+        peaks[k].frequency_hz + 1.5 * peaks[k].df < in.fs / 2) {
+      sf->line_of_peak.push_back(static_cast<int>(sf->lines.size()));
+      sf->lines.push_back(refineLine(in.rate, in.fs, peaks[k].frequency_hz, 1.5 * peaks[k].df, peaks[k].floor));
+    } else {
+      sf->line_of_peak.push_back(-1);
+    }
+  }
+  sf->peaks = out_peaks;
+  sf->broad = out_broad;
+  sf->excess = out_excess;
+}
+
 // The sinusoid (a line) or narrowband-oscillation candidate of one spectral feature; curve_taus: the curve's taus,
 // sorted, where a narrowband basis is tabulated.
 Candidate spectralCandidate(const CheckInput& in, const SpectralPeak& pk, bool broad, const FeatureExcess& fe,
-                            const std::shared_ptr<std::vector<double>>& curve_taus) {
+                            const SpectralLine* refined, const std::shared_ptr<std::vector<double>>& curve_taus) {
   const double fs = in.fs;
   Candidate c;
   const bool line = !broad && pk.bandwidth_hz <= 4 * pk.df;
   c.type = line ? "sinusoid" : "narrowband";
   c.nature = line ? Nature::Deterministic : Nature::Narrowband;
   char buf[512];
-  int len = std::snprintf(buf, sizeof buf,
-                          "PSD peak %.1f dB above the local median at %.4g Hz (%s %.3g Hz, %lld-sample Welch "
-                          "segments, amplitude %.3g)",
-                          pk.prominence_db, pk.frequency_hz, line ? "bin width" : "half-power width",
-                          line ? pk.df : pk.bandwidth_hz, static_cast<long long>(std::llround(fs / pk.df)),
-                          pk.amplitude);
+  int len = 0;
+  if (refined && refined->frequencies > 0)
+    len = std::snprintf(buf, sizeof buf,
+                        "whole-record periodogram %.1f dB above the noise level at %.4g Hz (false-alarm probability "
+                        "%.2g over %d frequencies)",
+                        10.0 * std::log10(refined->power_ratio), refined->frequency_hz, refined->false_alarm,
+                        refined->frequencies);
+  else
+    len = std::snprintf(buf, sizeof buf,
+                        "PSD peak %.1f dB above the local median at %.4g Hz (%s %.3g Hz, %lld-sample Welch "
+                        "segments, amplitude %.3g)",
+                        pk.prominence_db, pk.frequency_hz, line ? "bin width" : "half-power width",
+                        line ? pk.df : pk.bandwidth_hz, static_cast<long long>(std::llround(fs / pk.df)),
+                        pk.amplitude);
+  if (refined && len > 0 && len < static_cast<int>(sizeof buf))
+    len += std::snprintf(buf + len, sizeof buf - len,
+                         "; least squares on the samples: %.6g +- %.2g Hz, amplitude %.3g +- %.2g",
+                         refined->frequency_hz, refined->frequency_sigma_hz, refined->amplitude,
+                         refined->amplitude_sigma);
   if (!line && fe.ok && len > 0 && len < static_cast<int>(sizeof buf))
     std::snprintf(buf + len, sizeof buf - len,
                   "; excess over an MA(1)-shaped floor (lag-1 %.3f) from %.4g to %.4g Hz: amplitude %.3g",
                   fe.floor_rho, fe.lo, fe.hi, std::sqrt(2 * fe.total));
   c.evidence = buf;
-  const double f0 = pk.frequency_hz;
+  const double f0 = refined ? refined->frequency_hz : pk.frequency_hz;
   const double t0 = in.tau0;
   // A line keeps its PSD frequency; a narrowband oscillation keeps the measured shape of its PSD excess: its
   // AVAR is that of the excess spectrum (spectrumAvar) per unit c = 2 x total power, i.e. the excess-weighted
@@ -807,17 +890,19 @@ Candidate spectralCandidate(const CheckInput& in, const SpectralPeak& pk, bool b
     c.spectrum_hz = {f0};
     c.spectrum_weight = {1.0};
   }
-  c.fixed["frequency_hz"] = {f0, line ? pk.df / 2 : pk.df};
+  c.fixed["frequency_hz"] = {f0, refined ? refined->frequency_sigma_hz : line ? pk.df / 2 : pk.df};
   if (!line) c.fixed["bandwidth_hz"] = {pk.bandwidth_hz, pk.df};
   c.amplitude_name = "amplitude";
   c.n_nonlinear = line ? 1 : 2;
   return c;
 }
 
-// Sinusoid / narrowband oscillation candidates: Welch PSD peaks at a fine and a coarse resolution.
+// Sinusoid / narrowband oscillation candidates: Welch PSD peaks at a fine and a coarse resolution, and lines below
+// the fine one's band from the whole-record periodogram; lines refined on the samples.
 void addSpectralCandidates(const CheckInput& in, std::vector<Candidate>* cands) {
   SpectralFeatures sf = findSpectralFeatures(in);
   measureBroadFeatures(in, &sf);
+  refineLines(in, &sf);
   // The curve's taus, where the fits evaluate the bases: a narrowband basis is tabulated there once.
   auto curve_taus = std::make_shared<std::vector<double>>();
   for (const auto& p : in.curve.points) curve_taus->push_back(p.tau);
@@ -825,7 +910,9 @@ void addSpectralCandidates(const CheckInput& in, std::vector<Candidate>* cands) 
   for (size_t k = 0; k < sf.peaks.size(); ++k) {
     const SpectralPeak& pk = sf.peaks[k];
     if (pk.frequency_hz <= 0 || pk.frequency_hz >= in.fs / 2) continue;
-    cands->push_back(spectralCandidate(in, pk, sf.broad[k], sf.excess[k], curve_taus));
+    const int li = sf.line_of_peak[k];
+    cands->push_back(spectralCandidate(in, pk, sf.broad[k], sf.excess[k], li >= 0 ? &sf.lines[li] : nullptr,
+                                       curve_taus));
   }
 }
 

@@ -4,11 +4,13 @@
 #include "gyro_allan/stats.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <complex>
 #include <stdexcept>
 #include <string>
 
+#include <Eigen/Dense>
 #include <unsupported/Eigen/FFT>
 
 namespace gyro_allan {
@@ -136,12 +138,323 @@ std::vector<SpectralPeak> findPsdPeaks(const Psd& psd, double min_prominence_db,
     p.amplitude = std::sqrt(2.0 * power);
     p.bandwidth_hz = (half_hi - half_lo + 1) * psd.df;
     p.df = psd.df;
+    p.floor = fl;
     p.profile_f = p_f;
     p.profile_p = p_p;
     peaks.push_back(p);
     if (static_cast<int>(peaks.size()) >= max_peaks) break;
   }
   return peaks;
+}
+
+namespace {
+
+// Least-squares sinusoid at frequency f on y (rate r, sample j at j / r) with a mean and a linear trend: the cos and
+// sin coefficients (phase referred to t = 0) and the sum of squares they explain beyond mean and trend.
+struct LineFit {
+  double a = 0, b = 0, explained = 0;
+};
+
+LineFit fitSinusoidAt(const std::vector<double>& y, double r, double f) {
+  const int64_t J = static_cast<int64_t>(y.size());
+  const double w = 2.0 * M_PI * f / r;
+  const double tm = 0.5 * static_cast<double>(J - 1);
+  // Normal equations of [1, t - tm, cos, sin]; cos and sin by a rotation recurrence, re-anchored every 1024 samples.
+  Eigen::Matrix4d A = Eigen::Matrix4d::Zero();
+  Eigen::Vector4d rhs = Eigen::Vector4d::Zero();
+  const std::complex<double> step = std::polar(1.0, w);
+  std::complex<double> rot(1.0, 0.0);
+  for (int64_t j = 0; j < J; ++j) {
+    if ((j & 1023) == 0) rot = std::polar(1.0, w * static_cast<double>(j));
+    const Eigen::Vector4d g(1.0, static_cast<double>(j) - tm, rot.real(), rot.imag());
+    A.noalias() += g * g.transpose();
+    rhs.noalias() += g * y[j];
+    rot *= step;
+  }
+  LineFit out;
+  const Eigen::Vector4d full = A.ldlt().solve(rhs);
+  const Eigen::Vector2d base = A.topLeftCorner<2, 2>().ldlt().solve(rhs.head<2>());
+  if (!full.allFinite() || !base.allFinite()) return out;
+  out.a = full[2];
+  out.b = full[3];
+  out.explained = std::max(0.0, full.dot(rhs) - base.dot(rhs.head<2>()));
+  return out;
+}
+
+// Golden-section maximum of g over [lo, hi].
+template <class G>
+double goldenMax(G g, double lo, double hi, int iterations) {
+  const double gr = 0.5 * (std::sqrt(5.0) - 1.0);
+  double x1 = hi - gr * (hi - lo), x2 = lo + gr * (hi - lo);
+  double g1 = g(x1), g2 = g(x2);
+  for (int it = 0; it < iterations; ++it) {
+    if (g1 > g2) {
+      hi = x2;
+      x2 = x1;
+      g2 = g1;
+      x1 = hi - gr * (hi - lo);
+      g1 = g(x1);
+    } else {
+      lo = x1;
+      x1 = x2;
+      g1 = g2;
+      x2 = lo + gr * (hi - lo);
+      g2 = g(x2);
+    }
+  }
+  return g1 > g2 ? x1 : x2;
+}
+
+// Gain of a b-sample block mean at frequency f (rate fs), referred to the block's centre: real, 1 at f = 0.
+double blockMeanGain(double f, double fs, int64_t b) {
+  const double s = std::sin(M_PI * f / fs);
+  if (b <= 1 || std::fabs(s) < 1e-300) return 1.0;
+  return std::sin(M_PI * f * static_cast<double>(b) / fs) / (static_cast<double>(b) * s);
+}
+
+SpectralLine lineFromFit(const LineFit& lf, double gain, double f, double T, double noise_psd) {
+  SpectralLine l;
+  l.frequency_hz = f;
+  l.amplitude = std::hypot(lf.a, lf.b) / gain;
+  l.noise_psd = noise_psd;
+  if (noise_psd > 0 && l.amplitude > 0) {
+    l.amplitude_sigma = std::sqrt(noise_psd / T);
+    l.frequency_sigma_hz = std::sqrt(3.0 * noise_psd) / (M_PI * l.amplitude * std::pow(T, 1.5));
+    l.power_ratio = l.amplitude * l.amplitude * T / (2.0 * noise_psd);
+  }
+  return l;
+}
+
+// Chance that the periodogram of noise alone exceeds `ratio` times its level somewhere in a band of M whole-record
+// bins, searched on a fine grid: M_eff = M kappa sqrt(ratio) independent exponential variates (the sqrt(ratio)
+// growth of the maximum over a continuous frequency, Baluev 2008), kappa = 0.85 set on clean records (white noise
+// with and without a random walk, seeds 1-600; docs/model_check.md).
+double falseAlarm(double ratio, int M) {
+  const double m_eff = M * std::max(1.0, 0.85 * std::sqrt(ratio));
+  return -std::expm1(m_eff * std::log1p(-std::exp(-ratio)));
+}
+
+// x minus its least-squares straight line.
+std::vector<double> detrended(const std::vector<double>& x) {
+  const int64_t n = static_cast<int64_t>(x.size());
+  const double tm = 0.5 * static_cast<double>(n - 1);
+  double sy = 0, sty = 0, stt = 0;
+  for (int64_t i = 0; i < n; ++i) {
+    const double t = static_cast<double>(i) - tm;
+    sy += x[i];
+    sty += t * x[i];
+    stt += t * t;
+  }
+  const double mean = sy / static_cast<double>(n), slope = stt > 0 ? sty / stt : 0.0;
+  std::vector<double> y(x.size());
+  for (int64_t i = 0; i < n; ++i) y[i] = x[i] - mean - slope * (static_cast<double>(i) - tm);
+  return y;
+}
+
+}  // namespace
+
+SpectralLine refineLine(const std::vector<double>& x, double fs, double f0, double half_width, double noise_psd) {
+  if (!(fs > 0) || !(f0 > 0) || !(f0 < fs / 2) || !(half_width > 0))
+    throw std::invalid_argument("refineLine: need fs > 0, 0 < f0 < fs/2 and half_width > 0");
+  requireFinite(x, "refineLine");
+  const int64_t n = static_cast<int64_t>(x.size());
+  if (n < 64) throw std::invalid_argument("refineLine: need at least 64 samples");
+  const double T = static_cast<double>(n) / fs;
+  // Zoom: x shifted by -f0 and averaged over blocks of b samples (the band f0 +- half_width keeps >= 98 % of its
+  // amplitude), then the periodogram of those block means on a grid of 1/(4T) and a golden-section refinement.
+  const int64_t b = std::clamp<int64_t>(static_cast<int64_t>(fs / (8.0 * half_width)), 1, n / 16);
+  const int64_t J = n / b;
+  std::vector<std::complex<double>> z(static_cast<size_t>(J));
+  const double w0 = -2.0 * M_PI * f0 / fs;
+  const std::complex<double> step = std::polar(1.0, w0);
+  std::complex<double> rot(1.0, 0.0);
+  for (int64_t j = 0; j < J; ++j) {
+    std::complex<double> acc(0.0, 0.0);
+    for (int64_t k = j * b; k < (j + 1) * b; ++k) {
+      if ((k & 1023) == 0) rot = std::polar(1.0, w0 * static_cast<double>(k));
+      acc += x[k] * rot;
+      rot *= step;
+    }
+    z[j] = acc / static_cast<double>(b);
+  }
+  const double fz = fs / static_cast<double>(b);
+  auto zoomPower = [&](double df) {
+    const std::complex<double> st = std::polar(1.0, -2.0 * M_PI * df / fz);
+    std::complex<double> r(1.0, 0.0), acc(0.0, 0.0);
+    for (int64_t j = 0; j < J; ++j) {
+      if ((j & 1023) == 0) r = std::polar(1.0, -2.0 * M_PI * df / fz * static_cast<double>(j));
+      acc += z[j] * r;
+      r *= st;
+    }
+    const double g = blockMeanGain(df, fs, b);
+    return std::norm(acc) / (g * g);
+  };
+  const double grid = 1.0 / (4.0 * T);
+  double best = 0, best_p = -1;
+  for (double df = -half_width; df <= half_width; df += grid) {
+    if (!(f0 + df > 0 && f0 + df < fs / 2)) continue;
+    const double p = zoomPower(df);
+    if (p > best_p) {
+      best_p = p;
+      best = df;
+    }
+  }
+  const double dfz = goldenMax(zoomPower, best - grid, best + grid, 30);
+  const double f = std::clamp(f0 + dfz, 1e-12 * fs, 0.5 * fs * (1 - 1e-12));
+  return lineFromFit(fitSinusoidAt(x, fs, f), 1.0, f, T, noise_psd);
+}
+
+std::vector<SpectralLine> findSlowLines(const std::vector<double>& x, double fs, double f_lo, double f_hi,
+                                        double false_alarm, int max_lines) {
+  if (!(fs > 0) || !(f_lo > 0) || !(f_hi > f_lo) || !(f_hi < fs / 2))
+    throw std::invalid_argument("findSlowLines: need 0 < f_lo < f_hi < fs/2");
+  requireFinite(x, "findSlowLines");
+  std::vector<SpectralLine> lines;
+  const int64_t n = static_cast<int64_t>(x.size());
+  const int64_t b = std::max<int64_t>(1, static_cast<int64_t>(fs / (8.0 * f_hi)));
+  const int64_t J = n / b;
+  if (J < 64 || max_lines <= 0) return lines;
+  const double fy = fs / static_cast<double>(b), T = static_cast<double>(J) / fy;
+  const int frequencies = static_cast<int>(std::floor((f_hi - f_lo) * T));
+  if (frequencies < 8) return lines;
+  // Block means of the detrended record: the residual the lines are taken out of one by one.
+  const std::vector<double> xd = detrended(x);
+  std::vector<double> y(static_cast<size_t>(J));
+  for (int64_t j = 0; j < J; ++j) {
+    double s = 0;
+    for (int64_t k = j * b; k < (j + 1) * b; ++k) s += xd[k];
+    y[j] = s / static_cast<double>(b);
+  }
+  int64_t L = 1;
+  while (L < 4 * J) L *= 2;
+  const double dfp = fy / static_cast<double>(L);  // padded grid
+  Eigen::FFT<double> fft;
+  fft.SetFlag(Eigen::FFT<double>::HalfSpectrum);
+  std::vector<double> seg(static_cast<size_t>(L), 0.0);
+  std::vector<std::complex<double>> spec;
+  const int64_t m_fit_lo = std::max<int64_t>(1, static_cast<int64_t>(std::ceil(1.0 / T / dfp)));
+  const int64_t m_fit_hi = std::min<int64_t>(L / 2 - 1, static_cast<int64_t>(1.5 * f_hi / dfp));
+  const int64_t m_lo = static_cast<int64_t>(std::ceil(f_lo / dfp)), m_hi = static_cast<int64_t>(f_hi / dfp);
+  std::vector<double> taken_hz;
+  // Tukey window (cosine tapers over 10 % at each end): side lobes falling as 1/k^3, so that a random walk's
+  // 1/f^2 power does not leak into the bins above it, for 0.3 dB of a line's peak.
+  std::vector<double> win(static_cast<size_t>(J), 1.0);
+  const int64_t taper = std::max<int64_t>(1, J / 10);
+  for (int64_t j = 0; j < taper; ++j) {
+    const double v = 0.5 - 0.5 * std::cos(M_PI * (static_cast<double>(j) + 0.5) / static_cast<double>(taper));
+    win[j] = v;
+    win[J - 1 - j] = v;
+  }
+  double wss = 0;
+  for (double v : win) wss += v * v;
+  for (int round = 0; round < max_lines; ++round) {
+    for (int64_t j = 0; j < J; ++j) seg[j] = y[j] * win[j];
+    fft.fwd(spec, seg);
+    std::vector<double> P(static_cast<size_t>(L / 2 + 1));
+    for (size_t m = 0; m < P.size(); ++m) P[m] = 2.0 * std::norm(spec[m]) / (fy * wss);
+    // Noise level: S(f) = g(f)^2 (w + b / f + k / f^2), white, flicker and random-walk rate noise seen through the
+    // block mean's gain g, fitted by Whittle maximum likelihood (iteratively reweighted least squares with weights
+    // 1/S^2, non-negative coefficients).
+    std::vector<bool> use(P.size(), true);
+    Eigen::Vector3d c(1.0, 0.0, 0.0);
+    auto basis = [&](double f) {
+      const double g = blockMeanGain(f, fs, b);
+      return Eigen::Vector3d(g * g, g * g / f, g * g / (f * f));
+    };
+    auto level = [&](double f) { return std::max(1e-300, basis(f).dot(c)); };
+    {  // start: flat at the median / ln 2 (the mean of an exponential variate)
+      std::vector<double> band(P.begin() + m_fit_lo, P.begin() + m_fit_hi + 1);
+      c[0] = std::max(1e-300, upperMedianInPlace(band) / std::log(2.0));
+    }
+    // Points within 2 whole-record bins of one more than 10x above the level are left out (a line's main lobe and
+    // shoulders; noise alone exceeds 10x at e^-10 of the points).
+    const int64_t lobe = 2 * L / J + 1;
+    auto excludeLines = [&]() {
+      std::fill(use.begin(), use.end(), true);
+      for (int64_t m = m_fit_lo; m <= m_fit_hi; ++m)
+        if (P[m] > 10.0 * level(m * dfp))
+          for (int64_t q = std::max<int64_t>(0, m - lobe); q <= std::min<int64_t>(m_fit_hi, m + lobe); ++q)
+            use[q] = false;
+    };
+    for (int it = 0; it < 12; ++it) {
+      // Weighted normal equations at the current level, then the non-negative least-squares solution: of the seven
+      // subsets of the three terms, the feasible one with the smallest weighted residual.
+      Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
+      Eigen::Vector3d r = Eigen::Vector3d::Zero();
+      double pp = 0;
+      for (int64_t m = m_fit_lo; m <= m_fit_hi; ++m) {
+        if (!use[m]) continue;
+        const Eigen::Vector3d g = basis(m * dfp);
+        const double s = level(m * dfp), w = 1.0 / (s * s);
+        A.noalias() += w * g * g.transpose();
+        r.noalias() += w * g * P[m];
+        pp += w * P[m] * P[m];
+      }
+      Eigen::Vector3d best_c = c;
+      double best_sse = HUGE_VAL;
+      for (int mask = 1; mask < 8; ++mask) {
+        std::vector<int> idx;
+        for (int q = 0; q < 3; ++q)
+          if (mask & (1 << q)) idx.push_back(q);
+        const int k = static_cast<int>(idx.size());
+        Eigen::MatrixXd As(k, k);
+        Eigen::VectorXd rs(k);
+        for (int a = 0; a < k; ++a) {
+          rs[a] = r[idx[a]];
+          for (int bq = 0; bq < k; ++bq) As(a, bq) = A(idx[a], idx[bq]);
+        }
+        const Eigen::VectorXd xs = As.ldlt().solve(rs);
+        if (!xs.allFinite() || (xs.array() < 0).any()) continue;
+        Eigen::Vector3d cand = Eigen::Vector3d::Zero();
+        for (int a = 0; a < k; ++a) cand[idx[a]] = xs[a];
+        const double sse = pp - 2 * cand.dot(r) + cand.dot(A * cand);
+        if (sse < best_sse) {
+          best_sse = sse;
+          best_c = cand;
+        }
+      }
+      if (!(best_sse < HUGE_VAL)) return lines;
+      c = best_c;
+      if (it >= 1) excludeLines();  // the first fit sees every point (a random walk's low bins are not lines)
+    }
+    double best_ratio = 0;
+    int64_t best_m = -1;
+    for (int64_t m = std::max<int64_t>(m_lo, 1); m <= m_hi; ++m) {
+      bool near = false;
+      for (double fh : taken_hz) near = near || std::fabs(m * dfp - fh) < 2.0 / T;
+      if (near) continue;
+      const double ratio = P[m] / level(m * dfp);
+      if (ratio > best_ratio) {
+        best_ratio = ratio;
+        best_m = m;
+      }
+    }
+    if (best_m < 0) break;
+    const double fa = falseAlarm(best_ratio, frequencies);
+    if (!(fa < false_alarm)) break;
+    // Refine on the block means: frequency within +-1 padded bin by golden section on the explained power, then the
+    // amplitude corrected for the block mean's gain; the fitted sinusoid leaves the residual before the next round.
+    const double fr = goldenMax([&](double f) { return fitSinusoidAt(y, fy, f).explained; },
+                                (best_m - 1) * dfp, (best_m + 1) * dfp, 30);
+    const LineFit lf = fitSinusoidAt(y, fy, fr);
+    const double g = blockMeanGain(fr, fs, b);
+    // The amplitude from every sample: a line above f_hi folded into the band by the block means has none there.
+    const LineFit lx = fitSinusoidAt(x, fs, fr);
+    if (std::hypot(lx.a, lx.b) >= 0.5 * std::hypot(lf.a, lf.b) / g) {
+      SpectralLine l = lineFromFit(lx, 1.0, fr, T, level(fr) / (g * g));
+      l.power_ratio = best_ratio;
+      l.false_alarm = fa;
+      l.frequencies = frequencies;
+      lines.push_back(l);
+    }
+    taken_hz.push_back(fr);
+    // Block centre j + (b - 1)/2 samples of x; fitSinusoidAt's phase is referred to block 0's centre.
+    for (int64_t j = 0; j < J; ++j) {
+      const double ph = 2.0 * M_PI * fr * static_cast<double>(j) / fy;
+      y[j] -= lf.a * std::cos(ph) + lf.b * std::sin(ph);
+    }
+  }
+  return lines;
 }
 
 std::vector<double> autocovariance(const std::vector<double>& x, int64_t max_lag) {
