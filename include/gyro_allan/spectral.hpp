@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 namespace gyro_allan {
@@ -48,6 +49,16 @@ struct SpectralLine {
   double false_alarm = 1;   ///< chance that noise alone gives a peak this high somewhere in the band searched
   int frequencies = 0;      ///< independent frequencies (whole-record bins) in that band
 };
+
+/// Chance that noise alone puts a whole-record periodogram peak `ratio` times above its level somewhere in a band
+/// of `frequencies` whole-record bins searched on a fine grid (the family-wise false-alarm probability of
+/// findSlowLines, also used for the Welch band).
+double lineFalseAlarm(double ratio, int frequencies);
+
+/// Joint least squares of sinusoids at the given frequencies, with a mean and a linear trend, on x (rate fs): the
+/// cos and sin coefficients of each, phase referred to sample 0 (x[i] ~ c cos(2 pi f i / fs) + s sin(...)).
+std::vector<std::pair<double, double>> fitSinusoids(const std::vector<double>& x, double fs,
+                                                     const std::vector<double>& frequencies_hz);
 
 /// Refines a line near f0 by least squares on the samples x (rate fs): the frequency within f0 +- half_width that
 /// maximizes the whole-record periodogram (a zoom transform: x shifted by -f0 and averaged over blocks short enough

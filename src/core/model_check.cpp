@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <complex>
 #include <cstdio>
 #include <functional>
 #include <limits>
@@ -799,8 +800,11 @@ void refineLines(const CheckInput& in, SpectralFeatures* sf) {
     const bool line = !broad[k] && peaks[k].bandwidth_hz <= 4 * peaks[k].df;
     if (line && peaks[k].floor > 0 && peaks[k].frequency_hz > 1.5 * peaks[k].df &&
         peaks[k].frequency_hz + 1.5 * peaks[k].df < in.fs / 2) {
+      SpectralLine l = refineLine(in.rate, in.fs, peaks[k].frequency_hz, 1.5 * peaks[k].df, peaks[k].floor);
+      l.frequencies = std::max(1, static_cast<int>((0.5 * in.fs - f_hi) * in.T));
+      l.false_alarm = lineFalseAlarm(l.power_ratio, l.frequencies);
       sf->line_of_peak.push_back(static_cast<int>(sf->lines.size()));
-      sf->lines.push_back(refineLine(in.rate, in.fs, peaks[k].frequency_hz, 1.5 * peaks[k].df, peaks[k].floor));
+      sf->lines.push_back(l);
     } else {
       sf->line_of_peak.push_back(-1);
     }
@@ -821,7 +825,7 @@ Candidate spectralCandidate(const CheckInput& in, const SpectralPeak& pk, bool b
   c.nature = line ? Nature::Deterministic : Nature::Narrowband;
   char buf[512];
   int len = 0;
-  if (refined && refined->frequencies > 0)
+  if (refined && pk.df * in.T < 1.5)  // found in the whole-record periodogram (its bin is 1/T)
     len = std::snprintf(buf, sizeof buf,
                         "whole-record periodogram %.1f dB above the noise level at %.4g Hz (false-alarm probability "
                         "%.2g over %d frequencies)",
@@ -1509,6 +1513,110 @@ void recordAfter(const CheckInput& in, const std::vector<bool>& rms_mask, const 
   mc->residual_after = analyzeResidual(current.weighted, current.fit, current.extra, in.opts.structured_alpha);
 }
 
+// Lines refined on the samples (refineLines) whose family-wise false-alarm probability is below
+// opts.line_false_alarm.
+std::vector<SpectralLine> significantLines(const CheckInput& in) {
+  SpectralFeatures sf = findSpectralFeatures(in);
+  measureBroadFeatures(in, &sf);
+  refineLines(in, &sf);
+  std::vector<SpectralLine> out;
+  for (const auto& l : sf.lines)
+    if (l.amplitude > 0 && l.false_alarm < in.opts.line_false_alarm) out.push_back(l);
+  return out;
+}
+
+// x minus the sinusoids c cos(2 pi f i / fs) + s sin(2 pi f i / fs).
+std::vector<double> withoutLines(const std::vector<double>& x, double fs, const std::vector<double>& freqs,
+                                 const std::vector<std::pair<double, double>>& cs) {
+  std::vector<double> y = x;
+  for (size_t l = 0; l < freqs.size(); ++l) {
+    const double w = 2.0 * M_PI * freqs[l] / fs;
+    const std::complex<double> step = std::polar(1.0, w);
+    std::complex<double> rot(1.0, 0.0);
+    for (size_t i = 0; i < y.size(); ++i) {
+      if ((i & 1023) == 0) rot = std::polar(1.0, w * static_cast<double>(i));
+      y[i] -= cs[l].first * rot.real() + cs[l].second * rot.imag();
+      rot *= step;
+    }
+  }
+  return y;
+}
+
+// The overlapping Allan variance of y at the averaging factors of `curve` (its other fields kept, the deviation
+// and its bounds rescaled).
+DeviationCurve oadevLike(const DeviationCurve& curve, const std::vector<double>& y) {
+  DeviationCurve c = curve;
+  for (auto& p : c.points) {
+    const int64_t m = std::max<int64_t>(1, p.m > 0 ? p.m : static_cast<int64_t>(std::llround(p.tau / curve.tau0)));
+    const double v = overlappingAvarAt(y, m);
+    const double scale = p.var > 0 && v > 0 ? std::sqrt(v / p.var) : 1.0;
+    p.var = v;
+    p.dev = std::sqrt(std::max(0.0, v));
+    p.dev_lo *= scale;
+    p.dev_hi *= scale;
+  }
+  return c;
+}
+
+// The effects other than lines: candidates from the samples, forward selection, pruning, the final guard; the
+// result in mc (effects, after, fit_after, residual_after).
+void traceEffects(const CheckInput& in, const Model& base, const std::vector<bool>& rms_mask, ModelCheck* mc) {
+  std::vector<Candidate> cands = collectCandidates(in);
+  Selection sel;
+  sel.current = base;
+  forwardSelect(in, rms_mask, &cands, &sel, mc);
+  pruneJointModel(in, base, cands, rms_mask, &sel, mc);
+  finalGuard(in, base, rms_mask, &sel, mc);
+  recordAfter(in, rms_mask, sel, mc);
+}
+
+// The lines taken out of the samples, added to the answer: effects with their least-squares amplitude (joint fit
+// cs) and frequency, their AVAR A^2 sinusoidAvar(tau, f) added to the model curve; RMS error against the
+// measured curve (in: the record as given).
+void addLines(const CheckInput& in, const std::vector<SpectralLine>& lines,
+              const std::vector<std::pair<double, double>>& cs, const std::vector<bool>& rms_mask, ModelCheck* mc) {
+  const double t0 = in.tau0;
+  for (size_t k = 0; k < lines.size(); ++k) {
+    const SpectralLine& l = lines[k];
+    const double A = std::hypot(cs[k].first, cs[k].second), f = l.frequency_hz;
+    DetectedEffect e;
+    e.type = "sinusoid";
+    char buf[384];
+    std::snprintf(buf, sizeof buf,
+                  "whole-record periodogram %.1f dB above the noise level at %.6g Hz (false-alarm probability %.2g over %d "
+                  "frequencies); least squares on the samples (jointly with %zu other line(s)): %.6g +- %.2g Hz, "
+                  "amplitude %.3g +- %.2g; taken out of the samples before the other effects were traced",
+                  10.0 * std::log10(std::max(l.power_ratio, 1e-300)), f, l.false_alarm, l.frequencies,
+                  lines.size() - 1, f, l.frequency_sigma_hz, A, l.amplitude_sigma);
+    e.evidence = buf;
+    e.parameters["frequency_hz"] = {f, l.frequency_sigma_hz};
+    e.parameters["amplitude"] = {A, l.amplitude_sigma};
+    e.term.name = "sinusoid";
+    e.term.basis = [f, t0](double tau) { return sinusoidAvar(tau, f, t0); };
+    e.spectrum_hz = {f};
+    e.spectrum_weight = {1.0};
+    Coefficient co;
+    co.value = A;
+    co.sigma = l.amplitude_sigma;
+    co.supported = true;
+    co.lo68 = std::max(0.0, A - l.amplitude_sigma);
+    co.hi68 = A + l.amplitude_sigma;
+    co.lo95 = std::max(0.0, A - 1.959963984540054 * l.amplitude_sigma);
+    co.hi95 = A + 1.959963984540054 * l.amplitude_sigma;
+    for (size_t i = 0; i < mc->tau.size(); ++i) {
+      const double add = A * A * e.term.basis(mc->tau[i]);
+      if (i < mc->fit_after.model_var.size()) mc->fit_after.model_var[i] += add;
+      if (i < mc->model_var_after.size()) mc->model_var_after[i] += add;
+    }
+    mc->fit_after.extra.push_back(co);
+    mc->fit_after.extra_c.push_back(A * A);
+    mc->extra.push_back(e.term);
+    mc->effects.push_back(e);
+  }
+  mc->after.rms_log10 = rmsLog10(in.curve, mc->model_var_after, rms_mask);
+  mc->after.n_params += 2 * static_cast<int>(lines.size());
+}
+
 }  // namespace
 
 ModelCheck checkModel(const std::vector<double>& rate, double tau0, const DeviationCurve& curve, const FitResult& fit,
@@ -1528,13 +1636,26 @@ ModelCheck checkModel(const std::vector<double>& rate, double tau0, const Deviat
   const std::vector<bool> rms_mask = rmsMask(in, base);
   recordBefore(in, base, rms_mask, &mc);
 
-  std::vector<Candidate> cands = collectCandidates(in);
-  Selection sel;
-  sel.current = base;
-  forwardSelect(in, rms_mask, &cands, &sel, &mc);
-  pruneJointModel(in, base, cands, rms_mask, &sel, &mc);
-  finalGuard(in, base, rms_mask, &sel, &mc);
-  recordAfter(in, rms_mask, sel, &mc);
+  // Lines first: found and refined on the samples and, where significant, fitted jointly and taken out of them;
+  // the other effects are traced on what is left (its own curve and plain fit).
+  const std::vector<SpectralLine> lines =
+      opts.search_sinusoid && n >= 256 && curve.name == "oadev" ? significantLines(in) : std::vector<SpectralLine>{};
+  if (lines.empty()) {
+    traceEffects(in, base, rms_mask, &mc);
+  } else {
+    std::vector<double> freqs;
+    for (const auto& l : lines) freqs.push_back(l.frequency_hz);
+    const std::vector<std::pair<double, double>> cs = fitSinusoids(rate, in.fs, freqs);
+    const std::vector<double> clean = withoutLines(rate, in.fs, freqs, cs);
+    const DeviationCurve clean_curve = oadevLike(curve, clean);
+    const CheckInput rest{clean, tau0, clean_curve, opts, temperature, n, n * tau0, 1.0 / tau0};
+    const FitResult clean_fit = fitNoiseModel(clean_curve, opts.fit);
+    if (!clean_fit.ok) return unchecked(mc, fit, "fit without the lines failed: " + clean_fit.message);
+    const Model clean_base = refitBase(rest, clean_fit);
+    if (!clean_base.ok) return unchecked(mc, fit, "refit without the lines failed: " + clean_base.fit.message);
+    traceEffects(rest, clean_base, rmsMask(rest, clean_base), &mc);
+    addLines(in, lines, cs, rms_mask, &mc);
+  }
   mc.ok = true;
   return mc;
 }

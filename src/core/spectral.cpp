@@ -229,7 +229,7 @@ SpectralLine lineFromFit(const LineFit& lf, double gain, double f, double T, dou
 // bins, searched on a fine grid: M_eff = M kappa sqrt(ratio) independent exponential variates (the sqrt(ratio)
 // growth of the maximum over a continuous frequency, Baluev 2008), kappa = 0.85 set on clean records (white noise
 // with and without a random walk, seeds 1-600; docs/model_check.md).
-double falseAlarm(double ratio, int M) {
+double falseAlarmOf(double ratio, int M) {
   const double m_eff = M * std::max(1.0, 0.85 * std::sqrt(ratio));
   return -std::expm1(m_eff * std::log1p(-std::exp(-ratio)));
 }
@@ -252,6 +252,39 @@ std::vector<double> detrended(const std::vector<double>& x) {
 }
 
 }  // namespace
+
+double lineFalseAlarm(double ratio, int frequencies) { return falseAlarmOf(ratio, frequencies); }
+
+std::vector<std::pair<double, double>> fitSinusoids(const std::vector<double>& x, double fs,
+                                                     const std::vector<double>& frequencies_hz) {
+  requireFinite(x, "fitSinusoids");
+  const int64_t n = static_cast<int64_t>(x.size());
+  const int L = static_cast<int>(frequencies_hz.size());
+  const int k = 2 + 2 * L;
+  if (n < k) throw std::invalid_argument("fitSinusoids: fewer samples than parameters");
+  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(k, k);
+  Eigen::VectorXd rhs = Eigen::VectorXd::Zero(k), g(k);
+  std::vector<std::complex<double>> step(L), rot(L, 1.0);
+  for (int l = 0; l < L; ++l) step[l] = std::polar(1.0, 2.0 * M_PI * frequencies_hz[l] / fs);
+  const double tm = 0.5 * static_cast<double>(n - 1);
+  for (int64_t i = 0; i < n; ++i) {
+    g[0] = 1.0;
+    g[1] = static_cast<double>(i) - tm;
+    for (int l = 0; l < L; ++l) {
+      if ((i & 1023) == 0) rot[l] = std::polar(1.0, 2.0 * M_PI * frequencies_hz[l] / fs * static_cast<double>(i));
+      g[2 + 2 * l] = rot[l].real();
+      g[3 + 2 * l] = rot[l].imag();
+      rot[l] *= step[l];
+    }
+    A.selfadjointView<Eigen::Lower>().rankUpdate(g);
+    rhs.noalias() += g * x[i];
+  }
+  const Eigen::VectorXd c = A.selfadjointView<Eigen::Lower>().ldlt().solve(rhs);
+  std::vector<std::pair<double, double>> out(static_cast<size_t>(L), {0.0, 0.0});
+  if (!c.allFinite()) return out;
+  for (int l = 0; l < L; ++l) out[l] = {c[2 + 2 * l], c[3 + 2 * l]};
+  return out;
+}
 
 SpectralLine refineLine(const std::vector<double>& x, double fs, double f0, double half_width, double noise_psd) {
   if (!(fs > 0) || !(f0 > 0) || !(f0 < fs / 2) || !(half_width > 0))
@@ -430,7 +463,7 @@ std::vector<SpectralLine> findSlowLines(const std::vector<double>& x, double fs,
       }
     }
     if (best_m < 0) break;
-    const double fa = falseAlarm(best_ratio, frequencies);
+    const double fa = falseAlarmOf(best_ratio, frequencies);
     if (!(fa < false_alarm)) break;
     // Refine on the block means: frequency within +-1 padded bin by golden section on the explained power, then the
     // amplitude corrected for the block mean's gain; the fitted sinusoid leaves the residual before the next round.
