@@ -112,8 +112,10 @@ struct ModelCheckOptions {
   double structured_alpha = 0.01;
   double psd_min_prominence_db = 8.0;
   int psd_max_peaks = 3;
-  /// Lines below the fine Welch PSD's search band, down to this many periods per record, from the whole-record
-  /// periodogram (findSlowLines) at this family-wise false-alarm probability; at most psd_max_peaks of them.
+  /// Lines from this many periods per record up to 32 fine Welch bins come from the whole-record periodogram
+  /// (findSlowLines), above from the Welch PSD; a line is taken out of the samples when its family-wise false-alarm
+  /// probability over its band is below line_false_alarm / 2 (the record's below line_false_alarm); at most
+  /// psd_max_peaks slow lines.
   double line_min_periods = 4.0;
   double line_false_alarm = 0.01;
   double step_min_z = 6.0;          ///< block-mean difference in robust sigmas

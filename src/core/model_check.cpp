@@ -756,7 +756,7 @@ void refineLines(const CheckInput& in, SpectralFeatures* sf) {
   const double f_hi = std::min(32.0 * in.fs / static_cast<double>(sf->fine), 0.45 * in.fs);
   std::vector<SpectralLine> slow;
   if (sf->fine >= 64 && f_hi > f_lo)
-    slow = findSlowLines(in.rate, in.fs, f_lo, f_hi, in.opts.line_false_alarm, in.opts.psd_max_peaks);
+    slow = findSlowLines(in.rate, in.fs, f_lo, f_hi, 0.5 * in.opts.line_false_alarm, in.opts.psd_max_peaks);
   std::vector<SpectralPeak> peaks;
   std::vector<bool> broad;
   std::vector<FeatureExcess> excess;
@@ -1513,15 +1513,15 @@ void recordAfter(const CheckInput& in, const std::vector<bool>& rms_mask, const 
   mc->residual_after = analyzeResidual(current.weighted, current.fit, current.extra, in.opts.structured_alpha);
 }
 
-// Lines refined on the samples (refineLines) whose family-wise false-alarm probability is below
-// opts.line_false_alarm.
+// Lines refined on the samples (refineLines) whose family-wise false-alarm probability over their band is below
+// half of opts.line_false_alarm (two bands: the record's false-alarm probability stays below it).
 std::vector<SpectralLine> significantLines(const CheckInput& in) {
   SpectralFeatures sf = findSpectralFeatures(in);
   measureBroadFeatures(in, &sf);
   refineLines(in, &sf);
   std::vector<SpectralLine> out;
   for (const auto& l : sf.lines)
-    if (l.amplitude > 0 && l.false_alarm < in.opts.line_false_alarm) out.push_back(l);
+    if (l.amplitude > 0 && l.false_alarm < 0.5 * in.opts.line_false_alarm) out.push_back(l);
   return out;
 }
 
@@ -1643,6 +1643,7 @@ ModelCheck checkModel(const std::vector<double>& rate, double tau0, const Deviat
   if (lines.empty()) {
     traceEffects(in, base, rms_mask, &mc);
   } else {
+    const ModelCheck plain = mc;  // before anything was traced
     std::vector<double> freqs;
     for (const auto& l : lines) freqs.push_back(l.frequency_hz);
     const std::vector<std::pair<double, double>> cs = fitSinusoids(rate, in.fs, freqs);
@@ -1655,6 +1656,18 @@ ModelCheck checkModel(const std::vector<double>& rate, double tau0, const Deviat
     if (!clean_base.ok) return unchecked(mc, fit, "refit without the lines failed: " + clean_base.fit.message);
     traceEffects(rest, clean_base, rmsMask(rest, clean_base), &mc);
     addLines(in, lines, cs, rms_mask, &mc);
+    // The acceptance rule of every effect: the answer must describe the measured curve better than the plain fit.
+    if (!(mc.after.rms_log10 <= (1.0 - opts.min_rms_gain) * mc.before.rms_log10)) {
+      const double with_lines = mc.after.rms_log10;
+      mc = plain;
+      traceEffects(in, base, rms_mask, &mc);
+      for (const auto& l : lines)
+        mc.rejected.push_back("sinusoid at " + fmt("%.6g Hz", l.frequency_hz) + " (amplitude " +
+                              fmt("%.3g", l.amplitude) + ", false-alarm probability " +
+                              fmt("%.2g", l.false_alarm) + "): with the lines taken out the RMS log10 error goes " +
+                              fmt("%.4f", plain.before.rms_log10) + " -> " + fmt("%.4f", with_lines) + " (needs -" +
+                              fmt("%.0f", 100 * opts.min_rms_gain) + " %)");
+    }
   }
   mc.ok = true;
   return mc;
