@@ -67,11 +67,12 @@ std::vector<std::pair<double, double>> fitSinusoids(const std::vector<double>& x
 SpectralLine refineLine(const std::vector<double>& x, double fs, double f0, double half_width, double noise_psd);
 
 /// Lines between f_lo and f_hi (f_hi well below fs/2; meant for the band under a Welch search's resolution, down to
-/// a few periods per record): periodogram of the whole record (block means, so that f_hi is an eighth of their
-/// rate; 4x zero padding), noise level by a robust quadratic fit of log periodogram against log frequency, peaks
-/// whose family-wise false-alarm probability over the band's independent frequencies is below `false_alarm`,
-/// strongest first (at most max_lines, 2 bins apart), each refined by refineLine. Empty when the band holds fewer
-/// than 8 bins.
+/// a few periods per record): periodogram of the whole record (block means of the detrended record, so that f_hi is
+/// an eighth of their rate; Tukey window, 4x zero padding); noise level g^2 (w + b/f + k/f^2) fitted by Whittle
+/// maximum likelihood with non-negative terms; the strongest peak is a line when its family-wise false-alarm
+/// probability over the band (lineFalseAlarm) is below `false_alarm`; its frequency refined by least squares on the
+/// block means, its amplitude by least squares on every sample; it leaves the block means and the search repeats, at
+/// most max_lines times. Empty when the band holds fewer than 8 bins.
 std::vector<SpectralLine> findSlowLines(const std::vector<double>& x, double fs, double f_lo, double f_hi,
                                         double false_alarm, int max_lines);
 
