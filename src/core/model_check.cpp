@@ -901,12 +901,17 @@ Candidate spectralCandidate(const CheckInput& in, const SpectralPeak& pk, bool b
   return c;
 }
 
-// Sinusoid / narrowband oscillation candidates: Welch PSD peaks at a fine and a coarse resolution, and lines below
-// the fine one's band from the whole-record periodogram; lines refined on the samples.
-void addSpectralCandidates(const CheckInput& in, std::vector<Candidate>* cands) {
+// The record's spectral features: Welch PSD peaks at a fine and a coarse resolution, the broad ones measured, and
+// lines below the fine one's band from the whole-record periodogram; lines refined on the samples.
+SpectralFeatures spectralFeatures(const CheckInput& in) {
   SpectralFeatures sf = findSpectralFeatures(in);
   measureBroadFeatures(in, &sf);
   refineLines(in, &sf);
+  return sf;
+}
+
+// Sinusoid / narrowband oscillation candidates of the record's spectral features.
+void addSpectralCandidates(const CheckInput& in, const SpectralFeatures& sf, std::vector<Candidate>* cands) {
   // The curve's taus, where the fits evaluate the bases: a narrowband basis is tabulated there once.
   auto curve_taus = std::make_shared<std::vector<double>>();
   for (const auto& p : in.curve.points) curve_taus->push_back(p.tau);
@@ -1153,10 +1158,11 @@ void addOutlierCandidate(const CheckInput& in, std::vector<Candidate>* cands) {
   cands->push_back(c);
 }
 
-// Every candidate effect the raw samples give evidence for, in the order the searches are enabled.
-std::vector<Candidate> collectCandidates(const CheckInput& in) {
+// Every candidate effect the raw samples give evidence for, in the order the searches are enabled; sf: the record's
+// spectral features when already computed.
+std::vector<Candidate> collectCandidates(const CheckInput& in, const SpectralFeatures* sf) {
   std::vector<Candidate> cands;
-  if (in.opts.search_sinusoid && in.n >= 256) addSpectralCandidates(in, &cands);
+  if (in.opts.search_sinusoid && in.n >= 256) addSpectralCandidates(in, sf ? *sf : spectralFeatures(in), &cands);
   if (in.opts.search_gauss_markov) addGaussMarkovCandidates(in, &cands);
   if (in.opts.search_bias_step) addBiasStepCandidate(in, &cands);
   if (in.opts.search_thermal) addThermalCandidates(in, &cands);
@@ -1514,14 +1520,11 @@ void recordAfter(const CheckInput& in, const std::vector<bool>& rms_mask, const 
 }
 
 // Lines refined on the samples (refineLines) whose family-wise false-alarm probability over their band is below
-// half of opts.line_false_alarm (two bands: the record's false-alarm probability stays below it).
-std::vector<SpectralLine> significantLines(const CheckInput& in) {
-  SpectralFeatures sf = findSpectralFeatures(in);
-  measureBroadFeatures(in, &sf);
-  refineLines(in, &sf);
+// half of line_false_alarm (two bands: the record's false-alarm probability stays below it).
+std::vector<SpectralLine> significantLines(const SpectralFeatures& sf, const ModelCheckOptions& opts) {
   std::vector<SpectralLine> out;
   for (const auto& l : sf.lines)
-    if (l.amplitude > 0 && l.false_alarm < 0.5 * in.opts.line_false_alarm) out.push_back(l);
+    if (l.amplitude > 0 && l.false_alarm < 0.5 * opts.line_false_alarm) out.push_back(l);
   return out;
 }
 
@@ -1559,9 +1562,10 @@ DeviationCurve oadevLike(const DeviationCurve& curve, const std::vector<double>&
 }
 
 // The effects other than lines: candidates from the samples, forward selection, pruning, the final guard; the
-// result in mc (effects, after, fit_after, residual_after).
-void traceEffects(const CheckInput& in, const Model& base, const std::vector<bool>& rms_mask, ModelCheck* mc) {
-  std::vector<Candidate> cands = collectCandidates(in);
+// result in mc (effects, after, fit_after, residual_after). sf: the record's spectral features when already computed.
+void traceEffects(const CheckInput& in, const Model& base, const std::vector<bool>& rms_mask, ModelCheck* mc,
+                  const SpectralFeatures* sf) {
+  std::vector<Candidate> cands = collectCandidates(in, sf);
   Selection sel;
   sel.current = base;
   forwardSelect(in, rms_mask, &cands, &sel, mc);
@@ -1638,10 +1642,12 @@ ModelCheck checkModel(const std::vector<double>& rate, double tau0, const Deviat
 
   // Lines first: found and refined on the samples and, where significant, fitted jointly and taken out of them;
   // the other effects are traced on what is left (its own curve and plain fit).
+  const bool spectral = opts.search_sinusoid && n >= 256;
+  const SpectralFeatures sf = spectral ? spectralFeatures(in) : SpectralFeatures{};
   const std::vector<SpectralLine> lines =
-      opts.search_sinusoid && n >= 256 && curve.name == "oadev" ? significantLines(in) : std::vector<SpectralLine>{};
+      spectral && curve.name == "oadev" ? significantLines(sf, opts) : std::vector<SpectralLine>{};
   if (lines.empty()) {
-    traceEffects(in, base, rms_mask, &mc);
+    traceEffects(in, base, rms_mask, &mc, spectral ? &sf : nullptr);
   } else {
     const ModelCheck plain = mc;  // before anything was traced
     std::vector<double> freqs;
@@ -1654,13 +1660,13 @@ ModelCheck checkModel(const std::vector<double>& rate, double tau0, const Deviat
     if (!clean_fit.ok) return unchecked(mc, fit, "fit without the lines failed: " + clean_fit.message);
     const Model clean_base = refitBase(rest, clean_fit);
     if (!clean_base.ok) return unchecked(mc, fit, "refit without the lines failed: " + clean_base.fit.message);
-    traceEffects(rest, clean_base, rmsMask(rest, clean_base), &mc);
+    traceEffects(rest, clean_base, rmsMask(rest, clean_base), &mc, nullptr);
     addLines(in, lines, cs, rms_mask, &mc);
     // The acceptance rule of every effect: the answer must describe the measured curve better than the plain fit.
     if (!(mc.after.rms_log10 <= (1.0 - opts.min_rms_gain) * mc.before.rms_log10)) {
       const double with_lines = mc.after.rms_log10;
       mc = plain;
-      traceEffects(in, base, rms_mask, &mc);
+      traceEffects(in, base, rms_mask, &mc, &sf);
       for (const auto& l : lines)
         mc.rejected.push_back("sinusoid at " + fmt("%.6g Hz", l.frequency_hz) + " (amplitude " +
                               fmt("%.3g", l.amplitude) + ", false-alarm probability " +

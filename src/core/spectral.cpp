@@ -149,36 +149,55 @@ std::vector<SpectralPeak> findPsdPeaks(const Psd& psd, double min_prominence_db,
 
 namespace {
 
-// Least-squares sinusoid at frequency f on y (rate r, sample j at j / r) with a mean and a linear trend: the cos and
-// sin coefficients (phase referred to t = 0) and the sum of squares they explain beyond mean and trend.
+// Least-squares sinusoids at the given frequencies on y (rate r, sample j at j / r) with a mean and a linear trend:
+// each one's cos and sin coefficients (phase referred to t = 0) and the sum of squares they explain beyond mean and
+// trend. Cos and sin by rotation recurrences, re-anchored every 1024 samples.
+struct SinusoidsFit {
+  std::vector<std::pair<double, double>> cs;
+  double explained = 0;
+};
+
+SinusoidsFit leastSquaresSinusoids(const std::vector<double>& y, double r, const std::vector<double>& freqs) {
+  const int64_t J = static_cast<int64_t>(y.size());
+  const int L = static_cast<int>(freqs.size());
+  const int k = 2 + 2 * L;
+  if (J < k) throw std::invalid_argument("fitSinusoids: fewer samples than parameters");
+  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(k, k);
+  Eigen::VectorXd rhs = Eigen::VectorXd::Zero(k), g(k);
+  std::vector<std::complex<double>> step(L), rot(L, 1.0);
+  for (int l = 0; l < L; ++l) step[l] = std::polar(1.0, 2.0 * M_PI * freqs[l] / r);
+  const double tm = 0.5 * static_cast<double>(J - 1);
+  for (int64_t j = 0; j < J; ++j) {
+    g[0] = 1.0;
+    g[1] = static_cast<double>(j) - tm;
+    for (int l = 0; l < L; ++l) {
+      if ((j & 1023) == 0) rot[l] = std::polar(1.0, 2.0 * M_PI * freqs[l] / r * static_cast<double>(j));
+      g[2 + 2 * l] = rot[l].real();
+      g[3 + 2 * l] = rot[l].imag();
+      rot[l] *= step[l];
+    }
+    A.selfadjointView<Eigen::Lower>().rankUpdate(g);
+    rhs.noalias() += g * y[j];
+  }
+  const Eigen::MatrixXd full_A = A.selfadjointView<Eigen::Lower>();
+  const Eigen::VectorXd full = full_A.ldlt().solve(rhs);
+  const Eigen::Vector2d base = full_A.topLeftCorner<2, 2>().ldlt().solve(rhs.head<2>());
+  SinusoidsFit out;
+  out.cs.assign(static_cast<size_t>(L), {0.0, 0.0});
+  if (!full.allFinite() || !base.allFinite()) return out;
+  for (int l = 0; l < L; ++l) out.cs[l] = {full[2 + 2 * l], full[3 + 2 * l]};
+  out.explained = std::max(0.0, full.dot(rhs) - base.dot(rhs.head<2>()));
+  return out;
+}
+
+// One sinusoid at f: its coefficients and the sum of squares it explains.
 struct LineFit {
   double a = 0, b = 0, explained = 0;
 };
 
 LineFit fitSinusoidAt(const std::vector<double>& y, double r, double f) {
-  const int64_t J = static_cast<int64_t>(y.size());
-  const double w = 2.0 * M_PI * f / r;
-  const double tm = 0.5 * static_cast<double>(J - 1);
-  // Normal equations of [1, t - tm, cos, sin]; cos and sin by a rotation recurrence, re-anchored every 1024 samples.
-  Eigen::Matrix4d A = Eigen::Matrix4d::Zero();
-  Eigen::Vector4d rhs = Eigen::Vector4d::Zero();
-  const std::complex<double> step = std::polar(1.0, w);
-  std::complex<double> rot(1.0, 0.0);
-  for (int64_t j = 0; j < J; ++j) {
-    if ((j & 1023) == 0) rot = std::polar(1.0, w * static_cast<double>(j));
-    const Eigen::Vector4d g(1.0, static_cast<double>(j) - tm, rot.real(), rot.imag());
-    A.noalias() += g * g.transpose();
-    rhs.noalias() += g * y[j];
-    rot *= step;
-  }
-  LineFit out;
-  const Eigen::Vector4d full = A.ldlt().solve(rhs);
-  const Eigen::Vector2d base = A.topLeftCorner<2, 2>().ldlt().solve(rhs.head<2>());
-  if (!full.allFinite() || !base.allFinite()) return out;
-  out.a = full[2];
-  out.b = full[3];
-  out.explained = std::max(0.0, full.dot(rhs) - base.dot(rhs.head<2>()));
-  return out;
+  const SinusoidsFit s = leastSquaresSinusoids(y, r, {f});
+  return {s.cs[0].first, s.cs[0].second, s.explained};
 }
 
 // Golden-section maximum of g over [lo, hi].
@@ -258,32 +277,7 @@ double lineFalseAlarm(double ratio, int frequencies) { return falseAlarmOf(ratio
 std::vector<std::pair<double, double>> fitSinusoids(const std::vector<double>& x, double fs,
                                                      const std::vector<double>& frequencies_hz) {
   requireFinite(x, "fitSinusoids");
-  const int64_t n = static_cast<int64_t>(x.size());
-  const int L = static_cast<int>(frequencies_hz.size());
-  const int k = 2 + 2 * L;
-  if (n < k) throw std::invalid_argument("fitSinusoids: fewer samples than parameters");
-  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(k, k);
-  Eigen::VectorXd rhs = Eigen::VectorXd::Zero(k), g(k);
-  std::vector<std::complex<double>> step(L), rot(L, 1.0);
-  for (int l = 0; l < L; ++l) step[l] = std::polar(1.0, 2.0 * M_PI * frequencies_hz[l] / fs);
-  const double tm = 0.5 * static_cast<double>(n - 1);
-  for (int64_t i = 0; i < n; ++i) {
-    g[0] = 1.0;
-    g[1] = static_cast<double>(i) - tm;
-    for (int l = 0; l < L; ++l) {
-      if ((i & 1023) == 0) rot[l] = std::polar(1.0, 2.0 * M_PI * frequencies_hz[l] / fs * static_cast<double>(i));
-      g[2 + 2 * l] = rot[l].real();
-      g[3 + 2 * l] = rot[l].imag();
-      rot[l] *= step[l];
-    }
-    A.selfadjointView<Eigen::Lower>().rankUpdate(g);
-    rhs.noalias() += g * x[i];
-  }
-  const Eigen::VectorXd c = A.selfadjointView<Eigen::Lower>().ldlt().solve(rhs);
-  std::vector<std::pair<double, double>> out(static_cast<size_t>(L), {0.0, 0.0});
-  if (!c.allFinite()) return out;
-  for (int l = 0; l < L; ++l) out[l] = {c[2 + 2 * l], c[3 + 2 * l]};
-  return out;
+  return leastSquaresSinusoids(x, fs, frequencies_hz).cs;
 }
 
 SpectralLine refineLine(const std::vector<double>& x, double fs, double f0, double half_width, double noise_psd) {
