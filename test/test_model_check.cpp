@@ -331,6 +331,29 @@ TEST(ModelCheck, SlowSinusoidFound) {
   }
 }
 
+TEST(ModelCheck, LinesThatDoNotLowerTheErrorAreRejected) {
+  // A strong random walk (N 1e-4 rad/sqrt(s), K 3e-6 rad/s/sqrt(s), 1 h at 100 Hz, seed 1048) puts a periodogram
+  // peak at 0.049 Hz past the line test (false-alarm probability 0.002); taken out, it does not lower the RMS error
+  // by min_rms_gain, so it is listed under rejected with both errors and the answer is the plain fit.
+  AxisNoise a;
+  a.angle_random_walk = 1e-4;
+  a.rate_random_walk = 3e-6;
+  const std::vector<double> y = simulateAxis(a, 100.0, 360000, 1048);
+  DeviationOptions o;
+  o.grid.kind = TauGridKind::Log;
+  o.grid.per_decade = 10;
+  const DeviationCurve curve = oadev(y, 0.01, o);
+  ModelCheckOptions mo;
+  const ModelCheck mc = checkModel(y, 0.01, curve, fitNoiseModel(curve, mo.fit), mo);
+  ASSERT_TRUE(mc.ok) << mc.message;
+  EXPECT_TRUE(mc.effects.empty());
+  EXPECT_DOUBLE_EQ(mc.after.rms_log10, mc.before.rms_log10);
+  bool rejected = false;
+  for (const auto& r : mc.rejected)
+    rejected = rejected || (r.rfind("sinusoid at", 0) == 0 && r.find("with the lines taken out") != std::string::npos);
+  EXPECT_TRUE(rejected);
+}
+
 TEST(ModelCheck, GaussMarkovFound) {
   // Tc = 10 s (100 Hz, 1 h) and Tc = 100 s (10 Hz, 30000 s): Tc within 30 %, sigma within 20 %, the refit explains
   // the curve.

@@ -239,5 +239,7 @@ TEST(Spectral, BadInputThrows) {
   EXPECT_THROW(findSlowLines(ok, 10.0, 0.1, 0.05, 0.01, 3), std::invalid_argument);  // f_hi <= f_lo
   EXPECT_THROW(findSlowLines(ok, 10.0, 0.01, 6.0, 0.01, 3), std::invalid_argument);  // above Nyquist
   EXPECT_THROW(refineLine(ok, 10.0, 0.0, 0.1, 1.0), std::invalid_argument);
+  EXPECT_THROW(fitSinusoids(x, 10.0, {0.1}), std::invalid_argument);  // non-finite sample
+  EXPECT_THROW(fitSinusoids(std::vector<double>(5, 1.0), 10.0, {0.1, 0.2}), std::invalid_argument);  // too short
   EXPECT_TRUE(findSlowLines(ok, 10.0, 0.05, 0.06, 0.01, 3).empty());  // fewer than 8 bins in the band
 }
