@@ -253,8 +253,12 @@ double falseAlarmOf(double ratio, int M) {
   return -std::expm1(m_eff * std::log1p(-std::exp(-ratio)));
 }
 
-// x minus its least-squares straight line.
-std::vector<double> detrended(const std::vector<double>& x) {
+// Least-squares straight line of x against the sample index, centred: x ~ mean + slope (i - (n - 1) / 2).
+struct Trend {
+  double mean = 0, slope = 0;
+};
+
+Trend trendOf(const std::vector<double>& x) {
   const int64_t n = static_cast<int64_t>(x.size());
   const double tm = 0.5 * static_cast<double>(n - 1);
   double sy = 0, sty = 0, stt = 0;
@@ -264,10 +268,7 @@ std::vector<double> detrended(const std::vector<double>& x) {
     sty += t * x[i];
     stt += t * t;
   }
-  const double mean = sy / static_cast<double>(n), slope = stt > 0 ? sty / stt : 0.0;
-  std::vector<double> y(x.size());
-  for (int64_t i = 0; i < n; ++i) y[i] = x[i] - mean - slope * (static_cast<double>(i) - tm);
-  return y;
+  return {sy / static_cast<double>(n), stt > 0 ? sty / stt : 0.0};
 }
 
 }  // namespace
@@ -344,13 +345,16 @@ std::vector<SpectralLine> findSlowLines(const std::vector<double>& x, double fs,
   const double fy = fs / static_cast<double>(b), T = static_cast<double>(J) / fy;
   const int frequencies = static_cast<int>(std::floor((f_hi - f_lo) * T));
   if (frequencies < 8) return lines;
-  // Block means of the detrended record: the residual the lines are taken out of one by one.
-  const std::vector<double> xd = detrended(x);
+  // Block means of the detrended record (the least-squares line of x, subtracted at each block's centre: a straight
+  // line's block mean), the residual the lines are taken out of one by one.
+  const Trend tr = trendOf(x);
+  const double tm = 0.5 * static_cast<double>(n - 1);
   std::vector<double> y(static_cast<size_t>(J));
   for (int64_t j = 0; j < J; ++j) {
     double s = 0;
-    for (int64_t k = j * b; k < (j + 1) * b; ++k) s += xd[k];
-    y[j] = s / static_cast<double>(b);
+    for (int64_t k = j * b; k < (j + 1) * b; ++k) s += x[k];
+    const double centre = static_cast<double>(j * b) + 0.5 * static_cast<double>(b - 1);
+    y[j] = s / static_cast<double>(b) - tr.mean - tr.slope * (centre - tm);
   }
   int64_t L = 1;
   while (L < 4 * J) L *= 2;
