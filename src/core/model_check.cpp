@@ -1619,6 +1619,14 @@ void addLines(const CheckInput& in, const std::vector<SpectralLine>& lines,
   }
   mc->after.rms_log10 = rmsLog10(in.curve, mc->model_var_after, rms_mask);
   mc->after.n_params += 2 * static_cast<int>(lines.size());
+  // The answer's own error figures against the measured curve (its chi-squared stays the fit's of the curve
+  // without the lines).
+  FitResult& fa = mc->fit_after;
+  const FitError fe = fitError(withModelEdf(in.curve, fa), fa.model_var, fa.used, mc->after.n_params,
+                               in.opts.fit.rms_min_edf);
+  fa.rms_log10 = fe.rms_log10;
+  fa.n_rms = fe.n_rms;
+  fa.worst_adev_ratio = fe.worst_adev_ratio;
 }
 
 }  // namespace
