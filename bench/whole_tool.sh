@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Whole-tool benchmark: analyze_bag next to a bare rosbag::View read (bag_scan) of the same bags; prints wall time,
 # CPU time, peak RSS and the ratios, measured side by side (alternating runs, best of R each). Two analyze_bag rows
-# per bag: without the plot (--no-plot) and the default run with its plot (scripts/plot_allan.py, matplotlib).
+# per bag: without the plot (--no-plot) and the default run, which draws allan.png and allan.svg in-process.
 # Usage: bench/whole_tool.sh [--durations "600 3600 14400"] [--rate 400] [--repeat 3] [--dir DIR] [--no-plot-only]
 #                            [-- analyze_bag options]
 # Bags are generated once with the simulate tool into DIR (default /tmp/gyro_allan_bench) and reused.
@@ -80,5 +80,4 @@ for d in $durations; do
         d, n, bare, what, aw, au+as, am/1024, aw/bw, (au+as)/(bu+bs), (am-bm)/1024}'
   done
 done
-echo "RSS = peak resident set (MiB; with plot: analyze_bag's own, /usr/bin/time counts the largest process);"
-echo "wall x / cpu x = analyze_bag / bare read (cpu with plot includes the python3 plot process); gyro samples as doubles = 24 B x messages"
+echo "RSS = peak resident set (MiB); wall x / cpu x = analyze_bag / bare read; RSS +MB = analyze_bag's peak - the bare read's"

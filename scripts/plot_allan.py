@@ -1,16 +1,14 @@
 #!/usr/bin/env python3
-# plot_allan.py: draws DIR/allan.csv + DIR/report.yaml (analyze_bag output) as DIR/allan.png and DIR/allan.svg.
+# plot_allan.py: publication-quality matplotlib version of analyze_bag's plot (DIR/allan.png and DIR/allan.svg).
 """Log-log Allan deviation per sensor (gyro row, accelerometer row if present) and axis (columns): measured oadev with
 its confidence band, the fitted model, each supported IEEE term as a line labelled with its slope, the wavelet-split
 curves when present and the model-check refit when it added effects.
 
-usage: /usr/bin/python3 plot_allan.py DIR [--dpi D] [--wait [--rows R]]
-The figure is 5 in x 4 in per panel at --dpi (default 100): 3 axes x 1 sensor = 1500 x 400 px, 2 sensors = 1500 x 800.
+analyze_bag draws the same figure itself; this script redraws it with matplotlib from DIR/allan.csv and
+DIR/report.yaml, overwriting DIR/allan.png and DIR/allan.svg (e.g. at a higher --dpi for print).
 
---wait: start before DIR's files exist (analyze_bag starts the script beside its analysis): import matplotlib and
-build an empty figure of R rows (default 2: gyro and accelerometer) x 3 axes with its ticks, then read one line from
-stdin; "go" draws DIR as usual, anything else or end of input exits 0 without drawing. The empty figure is used only
-when the data needs that layout, so the drawing is the same as without --wait.
+usage: /usr/bin/python3 plot_allan.py DIR [--dpi D]
+The figure is 5 in x 4 in per panel at --dpi (default 100): 3 axes x 1 sensor = 1500 x 400 px, 2 sensors = 1500 x 800.
 """
 import csv
 import math
@@ -48,57 +46,14 @@ def col(rows, name):
     return out
 
 
-def warm_figure(plt, rows, ncols, dpi):
-    """An empty rows x ncols figure with its tick objects made (most of matplotlib's time on these log-log panels
-    goes into making ~80 tick objects per axis), and the mathtext parser (log tick labels) built; both are used as
-    they would be had they been made while drawing."""
-    from matplotlib import mathtext
-    for output in ("agg", "path"):
-        mathtext.MathTextParser(output).parse(r"$\mathdefault{10^{-2}}$", dpi=dpi)
-    fig, panels = plt.subplots(rows, ncols, figsize=(5 * ncols, 4 * rows), dpi=dpi, squeeze=False)
-    for row in panels:
-        for ax in row:  # counts as on a 1 h, 400 Hz record (tau over 6-7 decades); more are made when needed
-            ax.xaxis.get_major_ticks(10)
-            ax.xaxis.get_minor_ticks(80)
-            ax.yaxis.get_major_ticks(8)
-            ax.yaxis.get_minor_ticks(64)
-    return fig, panels
-
-
 def save(fig, out_dir, dpi):
-    """allan.png and allan.svg; the SVG in a forked child beside the PNG (each takes about half the drawing time)."""
-    png, svg = os.path.join(out_dir, "allan.png"), os.path.join(out_dir, "allan.svg")
-    pid = os.fork() if hasattr(os, "fork") else -1
-    if pid == 0:
-        code = 0
-        try:
-            fig.savefig(svg)
-        except Exception as e:  # noqa: BLE001 -- reported to the parent by the exit code and one line
-            print("plot_allan: %s: %s" % (svg, e), file=sys.stderr)
-            code = 1
-        sys.stderr.flush()
-        os._exit(code)
-    fig.savefig(png, dpi=dpi)
-    if pid < 0:
-        fig.savefig(svg)
-    elif os.waitpid(pid, 0)[1] != 0:
-        sys.exit(1)
+    fig.savefig(os.path.join(out_dir, "allan.png"), dpi=dpi)
+    fig.savefig(os.path.join(out_dir, "allan.svg"))
 
 
 def main(argv):
     args = [a for a in argv[1:]]
     dpi = 100
-    wait = "--wait" in args
-    if wait:
-        args.remove("--wait")
-    rows = 2
-    if "--rows" in args:
-        i = args.index("--rows")
-        try:
-            rows = int(args[i + 1])
-        except (IndexError, ValueError):
-            fail("--rows needs an integer", 1)
-        del args[i:i + 2]
     if "--dpi" in args:
         i = args.index("--dpi")
         try:
@@ -117,11 +72,6 @@ def main(argv):
         import yaml
     except ImportError as e:
         fail("python3-matplotlib / python3-yaml missing (%s): apt install python3-matplotlib python3-yaml" % e)
-    warm = None
-    if wait:
-        warm = warm_figure(plt, rows, 3, dpi)
-        if sys.stdin.readline().strip() != "go":
-            return
     csv_path, rep_path = os.path.join(out_dir, "allan.csv"), os.path.join(out_dir, "report.yaml")
     if not os.path.exists(csv_path):
         fail("no %s" % csv_path)
@@ -139,12 +89,7 @@ def main(argv):
     if acc_axes:
         sensors.append(("accelerometer", acc_axes, acc, "m/s^2", 1))
     ncols = max(len(s[1]) for s in sensors)
-    if warm is not None and len(warm[1]) == len(sensors) and len(warm[1][0]) == ncols:
-        fig, panels = warm
-    else:
-        if warm is not None:
-            plt.close(warm[0])
-        fig, panels = plt.subplots(len(sensors), ncols, figsize=(5 * ncols, 4 * len(sensors)), dpi=dpi, squeeze=False)
+    fig, panels = plt.subplots(len(sensors), ncols, figsize=(5 * ncols, 4 * len(sensors)), dpi=dpi, squeeze=False)
     for row, (sensor, axes, node, unit, key_idx) in enumerate(sensors):
         for c in range(ncols):
             ax = panels[row][c]

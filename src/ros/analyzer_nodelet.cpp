@@ -11,7 +11,7 @@
 #include <pluginlib/class_list_macros.hpp>
 
 #include "gyro_allan/io/noise_model_yaml.hpp"
-#include "gyro_allan/io/plot_image.hpp"  // plotImageAvailable
+#include "gyro_allan/io/plot.hpp"  // rasterAvailable
 #include "gyro_allan/io/report.hpp"
 
 namespace gyro_allan {
@@ -35,7 +35,7 @@ void AnalyzerNodelet::onInit() {
   noise_pub_ = pnh.advertise<NoiseReport>("noise", 10, true);  // latched: a late subscriber gets the last result
   // latched; published while ~gmwm is on, and once with status "off" when it is turned off
   noise_model_pub_ = pnh.advertise<NoiseModel>("noise_model", 10, true);
-  if (p_.publish_plot && plotImageAvailable()) plot_pub_ = pnh.advertise<sensor_msgs::Image>("plot", 1);
+  if (p_.publish_plot && rasterAvailable()) plot_pub_ = pnh.advertise<sensor_msgs::Image>("plot", 1);
   const char* axes[3] = {"x", "y", "z"};
   if (p_.publish_curves)
     for (int a = 0; a < 3; ++a) curve_pub_[a] = pnh.advertise<AllanCurve>(std::string("allan/") + axes[a], 10, true);

@@ -9,7 +9,7 @@
 #include <set>
 
 #include "gyro_allan/io/noise_model_yaml.hpp"
-#include "gyro_allan/io/plot_image.hpp"
+#include "gyro_allan/io/plot.hpp"
 #include "gyro_allan/quality.hpp"
 #include "noise_model_msg.hpp"
 
@@ -413,7 +413,7 @@ sensor_msgs::Image plotMessage(const PipelineResult& r, const NoiseReport& repor
   char title[160];
   std::snprintf(title, sizeof title, "gyro_allan oadev  %lld samples  %.0f s window  %.4g Hz",
                 static_cast<long long>(report.samples), (report.window_end - report.window_start).toSec(), report.rate_hz);
-  RgbImage im = renderAllanPlot(series, p.plot_width, p.plot_height, title);
+  RgbImage im = renderRaster(seriesFigure(series, title, "", p.plot_width, p.plot_height));
   sensor_msgs::Image msg;
   msg.header = report.header;
   msg.width = static_cast<uint32_t>(im.width);

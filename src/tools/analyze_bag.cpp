@@ -3,11 +3,7 @@
 #ifdef __GLIBC__
 #include <malloc.h>
 #endif
-#include <fcntl.h>
-#include <signal.h>
-#include <sys/socket.h>
 #include <sys/stat.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -36,6 +32,7 @@
 #include "gyro_allan/csv_input.hpp"
 #include "gyro_allan/io/bag_input.hpp"
 #include "gyro_allan/io/noise_model_yaml.hpp"
+#include "gyro_allan/io/plot.hpp"
 #include "gyro_allan/io/report.hpp"
 #include "gyro_allan/kalibr.hpp"
 #include "gyro_allan/pipeline.hpp"
@@ -223,125 +220,6 @@ void makeDir(const std::string& dir) {
   }
 }
 
-/// Where plot_allan.py is: $GYRO_ALLAN_PLOT_SCRIPT, next to this executable (catkin install puts scripts in the
-/// package's lib folder), then the source tree this binary was built from. Empty if none exists.
-std::string plotScript() {
-  std::vector<std::string> candidates;
-  if (const char* env = std::getenv("GYRO_ALLAN_PLOT_SCRIPT")) candidates.push_back(env);
-  char exe[4096];
-  const ssize_t n = readlink("/proc/self/exe", exe, sizeof exe - 1);
-  if (n > 0) {
-    std::string dir(exe, static_cast<size_t>(n));
-    dir = dir.substr(0, dir.find_last_of('/'));
-    candidates.push_back(dir + "/plot_allan.py");
-  }
-#ifdef GYRO_ALLAN_SOURCE_DIR
-  candidates.push_back(std::string(GYRO_ALLAN_SOURCE_DIR) + "/scripts/plot_allan.py");
-#endif
-  for (const auto& c : candidates)
-    if (access(c.c_str(), R_OK) == 0) return c;
-  return "";
-}
-
-/// plot_allan.py started beside the analysis: `plot_allan.py DIR --wait --rows R` imports matplotlib and builds an
-/// empty figure with its ticks (about half of the plot's time) while the analysis runs, then waits for one line on
-/// its stdin. finish() sends "go" once the outputs are written and waits for the drawing; any failure is a one-line
-/// warning (the plot is optional). Destroyed without finish() (the analysis failed), it closes the script's stdin
-/// and stops it, so no plot process outlives analyze_bag.
-class PlotProcess {
- public:
-  PlotProcess(const std::string& dir, int rows, bool quiet) : quiet_(quiet) {
-    const std::string script = plotScript();
-    if (script.empty()) {
-      why_ = "plot_allan.py not found (set GYRO_ALLAN_PLOT_SCRIPT)";
-      return;
-    }
-    int in[2], out[2];
-    if (socketpair(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0, in) != 0) {
-      why_ = "cannot start python3";
-      return;
-    }
-    if (pipe2(out, O_CLOEXEC) != 0) {
-      close(in[0]), close(in[1]);
-      why_ = "cannot start python3";
-      return;
-    }
-    const std::string rows_s = std::to_string(rows);
-    std::vector<const char*> argv = {"python3", script.c_str(), dir.c_str(), "--wait", "--rows", rows_s.c_str(),
-                                     nullptr};
-    const pid_t pid = fork();
-    if (pid == 0) {  // child: only async-signal-safe calls until exec
-      dup2(in[1], 0);
-      dup2(out[1], 1);
-      dup2(out[1], 2);
-      execv("/usr/bin/python3", const_cast<char* const*>(argv.data()));
-      execvp("python3", const_cast<char* const*>(argv.data()));
-      const char msg[] = "cannot start python3\n";
-      (void)!write(2, msg, sizeof msg - 1);
-      _exit(127);
-    }
-    close(in[1]);
-    close(out[1]);
-    if (pid < 0) {
-      close(in[0]), close(out[0]);
-      why_ = "cannot start python3";
-      return;
-    }
-    pid_ = pid, in_ = in[0], out_ = out[0];
-  }
-  PlotProcess(const PlotProcess&) = delete;
-  PlotProcess& operator=(const PlotProcess&) = delete;
-  ~PlotProcess() {
-    if (pid_ <= 0) return;
-    close(in_);  // end of input: the script exits without drawing
-    kill(pid_, SIGTERM);
-    close(out_);
-    waitpid(pid_, nullptr, 0);
-  }
-
-  /// Draws the outputs now in the folder and waits for the script.
-  void finish() {
-    if (pid_ <= 0) return warn(why_);
-    const char go[] = "go\n";
-    (void)send(in_, go, sizeof go - 1, MSG_NOSIGNAL);  // fails only if the script already exited (its message follows)
-    close(in_);
-    std::string last, line;
-    char buf[512];
-    ssize_t n;
-    while ((n = read(out_, buf, sizeof buf)) != 0) {
-      if (n < 0) {
-        if (errno == EINTR) continue;
-        break;
-      }
-      for (ssize_t i = 0; i < n; ++i) {
-        if (buf[i] == '\n' || buf[i] == '\r') {
-          if (!line.empty()) last = line;
-          line.clear();
-        } else {
-          line += buf[i];
-        }
-      }
-    }
-    if (!line.empty()) last = line;
-    close(out_);
-    int status = 0;
-    pid_t w;
-    while ((w = waitpid(pid_, &status, 0)) < 0 && errno == EINTR) {
-    }
-    pid_ = -1;
-    if (w < 0 || !WIFEXITED(status) || WEXITSTATUS(status) != 0) warn(last.empty() ? "plot_allan.py failed" : last);
-  }
-
- private:
-  void warn(const std::string& why) const {
-    if (!quiet_) std::cerr << "analyze_bag: warning: no plot: " << why << "\n";
-  }
-  bool quiet_;
-  std::string why_;
-  pid_t pid_ = -1;
-  int in_ = -1, out_ = -1;
-};
-
 /// The input's state for the printed summary: timeline and at-rest check, one line each (spikes follow the table).
 std::string inputSummary(const ReportMeta& meta) {
   const StampReport& st = meta.stamps;
@@ -421,11 +299,8 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
   opt.wavelet_split = args.wavelet_split;
   opt.model_check = args.model_check;
   opt.remove_spikes = !args.keep_spikes;
-  // The plot script starts now, beside the analysis (see PlotProcess); rows: gyro, and accelerometer unless --no-accel.
   const char* no_plot = std::getenv("GYRO_ALLAN_NO_PLOT");
-  std::unique_ptr<PlotProcess> plot;
-  if (args.plot && !(no_plot && std::string(no_plot) == "1"))
-    plot = std::make_unique<PlotProcess>(args.output, args.accel ? 2 : 1, args.quiet);
+  const bool plot = args.plot && !(no_plot && std::string(no_plot) == "1");
 
   ReportMeta meta;
   meta.tau_grid = tauGridName(opt.deviation.grid);
@@ -537,6 +412,15 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
     std::cerr << "analyze_bag: error: " << e.what() << "\n";
     return kExitOutput;
   }
+  std::string plot_note;  // the plot is optional: a failure is a warning
+  if (plot) {
+    try {
+      plot_note = writeFigure(args.output, analysisFigure(results, accel_results));
+    } catch (const std::exception& e) {
+      plot_note = e.what();
+    }
+    if (!plot_note.empty() && !args.quiet) std::cerr << "analyze_bag: warning: no allan.png: " << plot_note << "\n";
+  }
   if (!args.quiet) {
     const int64_t analysed = pr.analysed();
     std::printf("%s%s: %lld samples, %.6g Hz, %.1f s, tau grid %s\n", meta.sources.front().c_str(),
@@ -547,10 +431,10 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
     if (!accel_results.empty()) std::printf("%s", accelSummaryTable(accel_results).c_str());
     if (opt.gmwm) std::printf("%swrote %s/noise_model.yaml\n", gmwmSummary(results).c_str(), args.output.c_str());
     if (!accel_note.empty()) std::printf("%s\n", accel_note.c_str());
-    std::printf("wrote %s/report.%s, %s/allan.csv and %s/imu.yaml (Kalibr)\n", args.output.c_str(),
-                args.format.c_str(), args.output.c_str(), args.output.c_str());
+    std::printf("wrote %s/report.%s, %s/allan.csv, %s/imu.yaml (Kalibr)%s\n", args.output.c_str(),
+                args.format.c_str(), args.output.c_str(), args.output.c_str(),
+                !plot ? "" : plot_note.empty() ? (" and " + args.output + "/allan.png, allan.svg").c_str() : "");
   }
-  if (plot) plot->finish();
   if (gyro_out) *gyro_out = results;
   if (accel_out) *accel_out = accel_results;
   return kExitOk;
