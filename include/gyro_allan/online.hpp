@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "gyro_allan/pipeline.hpp"
+#include "gyro_allan/quick_view.hpp"
 
 namespace gyro_allan {
 
@@ -21,6 +22,9 @@ struct OnlineOptions {
   double window_s = 3600;     ///< window length in input-stamp time [s] (> 0)
   double hop_s = 300;         ///< analysis period in input-stamp time [s] (0 < hop_s <= window_s)
   int64_t min_samples = 1000; ///< samples in the window before the first analysis (>= 3)
+  /// Quick answer period in input-stamp time [s] (0: no quick answers): between full analyses the window's oadev is
+  /// kept up to date per sample (QuickView) and fitted every update_s, the first once the window holds min_samples.
+  double update_s = 5;
   /// Throws std::invalid_argument naming the first bad value.
   void validate() const;
 };
@@ -82,6 +86,13 @@ class OnlineAnalyzer {
   static OnlineResult run(OnlineJob&& job);
   /// Adds a result's counts to counters() (call once per result, in any order).
   void account(const OnlineResult& result);
+  /// A quick answer is due: update_s past the previous one (the first: as soon as the quick view is ready).
+  bool quickDue() const;
+  /// The quick view's curves now (no fits yet: fitQuick does them, off any lock); the next is due update_s later.
+  /// window_first_ns is the window's oldest stamp. Throws std::logic_error when the quick view is not ready.
+  QuickAnswer takeQuick();
+  /// Fits each axis of a quick answer as the full analysis fits its joint fit (thread-safe).
+  static void fitQuick(QuickAnswer* q, const PipelineOptions& options);
   /// takeJob + run + account.
   OnlineResult analyzeNow();
   /// Empties the window and temperature, restarts the hop clock and the job sequence; counters are kept unless
@@ -102,6 +113,9 @@ class OnlineAnalyzer {
   };
   void trim();
   int64_t now_ns() const;
+  QuickViewOptions quickOptions() const;
+  /// The quick view started again (period tau0, or estimated when 0) and fed the window's samples.
+  void rebuildQuick(double tau0);
   OnlineOptions options_;
   OnlineCounters counters_;
   std::deque<Raw> window_;
@@ -113,6 +127,8 @@ class OnlineAnalyzer {
   int64_t next_hop_ns_ = 0;
   int64_t sequence_ = 0;
   double last_tau0_ = 0;                       ///< period of the last analysed window (0 before)
+  QuickView quick_;
+  int64_t next_quick_ns_ = 0;                  ///< input time of the next quick answer (0: as soon as ready)
 };
 
 }  // namespace gyro_allan

@@ -33,9 +33,49 @@ void OnlineOptions::validate() const {
   if (min_samples < 3) throw std::invalid_argument("min_samples must be >= 3");
   if (!(pipeline.sanitize.gap_factor > 1)) throw std::invalid_argument("gap_factor must be > 1");
   if (pipeline.jobs < 0) throw std::invalid_argument("jobs must be >= 0");
+  if (!(update_s >= 0) || !std::isfinite(update_s)) throw std::invalid_argument("update_s must be >= 0");
 }
 
-OnlineAnalyzer::OnlineAnalyzer(const OnlineOptions& options) : options_(options) { options_.validate(); }
+OnlineAnalyzer::OnlineAnalyzer(const OnlineOptions& options) : options_(options), quick_(QuickViewOptions{}) {
+  options_.validate();
+  quick_ = QuickView(quickOptions());
+}
+
+QuickViewOptions OnlineAnalyzer::quickOptions() const {
+  QuickViewOptions q;
+  q.window_s = options_.window_s;
+  q.input = options_.pipeline.analysis.input;
+  q.angle_increments = options_.pipeline.analysis.angle_increments;
+  q.deviation = options_.pipeline.analysis.deviation;
+  q.min_samples = options_.min_samples;
+  return q;
+}
+
+void OnlineAnalyzer::rebuildQuick(double tau0) {
+  quick_ = QuickView(quickOptions());
+  if (options_.update_s <= 0) return;
+  if (tau0 > 0) quick_.resetWithPeriod(tau0);
+  for (const Raw& r : window_) quick_.add(r.ns, r.g);
+}
+
+bool OnlineAnalyzer::quickDue() const {
+  return options_.update_s > 0 && quick_.ready() && (next_quick_ns_ == 0 || now_ns() >= next_quick_ns_);
+}
+
+QuickAnswer OnlineAnalyzer::takeQuick() {
+  QuickAnswer q = quick_.curves();
+  for (const Raw& r : window_)
+    if (r.ns != 0) {
+      q.window_first_ns = r.ns;
+      break;
+    }
+  next_quick_ns_ = now_ns() + secondsToNs(options_.update_s);
+  return q;
+}
+
+void OnlineAnalyzer::fitQuick(QuickAnswer* q, const PipelineOptions& options) {
+  QuickView::fit(q, options.analysis.fit, options.analysis.deviation.confidence);
+}
 
 int64_t OnlineAnalyzer::now_ns() const {
   // The median of the last three non-zero stamps: one stamp glitch (far ahead or behind) moves neither the window
@@ -68,6 +108,7 @@ void OnlineAnalyzer::addSample(int64_t stamp_ns, const std::array<double, 3>& gy
     next_hop_ns_ = now_ns() + secondsToNs(options_.hop_s);
     have_hop_ = true;
   }
+  if (options_.update_s > 0) quick_.add(stamp_ns, gyro);
   trim();
 }
 
@@ -177,6 +218,9 @@ OnlineResult OnlineAnalyzer::run(OnlineJob&& job) {
 void OnlineAnalyzer::account(const OnlineResult& r) {
   ++counters_.analyses;
   if (r.ok && r.result.tau0 > 0) last_tau0_ = r.result.tau0;
+  // The quick view's period from its first stamps; the full analysis's grid is better (e.g. batched stamps early on).
+  if (r.ok && r.result.tau0 > 0 && quick_.tau0() > 0 && std::abs(quick_.tau0() / r.result.tau0 - 1) > 0.005)
+    rebuildQuick(r.result.tau0);
   if (!r.ok) ++counters_.failed;
   const StampReport& s = r.new_samples;
   counters_.non_finite += s.non_finite;
@@ -203,14 +247,25 @@ void OnlineAnalyzer::reset(bool counters) {
   uncounted_ = 0;
   have_hop_ = false;
   sequence_ = 0;
+  next_quick_ns_ = 0;
+  quick_.reset();
   if (counters) counters_ = OnlineCounters();
 }
 
 void OnlineAnalyzer::setOptions(const OnlineOptions& options) {
   options.validate();
+  const QuickViewOptions before = quickOptions();
+  const bool was_on = options_.update_s > 0;
   options_ = options;
   if (have_hop_) next_hop_ns_ = std::min(next_hop_ns_, now_ns() + secondsToNs(options_.hop_s));
+  if (next_quick_ns_ != 0) next_quick_ns_ = std::min(next_quick_ns_, now_ns() + secondsToNs(options_.update_s));
   trim();
+  const QuickViewOptions after = quickOptions();
+  // The engines depend on the window, input kind and tau grid (the fit's options are the pipeline's at each fitQuick).
+  if ((options_.update_s > 0) != was_on || after.window_s != before.window_s || after.input != before.input ||
+      after.angle_increments != before.angle_increments || tauGridName(after.deviation.grid) != tauGridName(before.deviation.grid) ||
+      after.min_samples != before.min_samples)
+    rebuildQuick(quick_.tau0());
 }
 
 }  // namespace gyro_allan

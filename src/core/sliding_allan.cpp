@@ -23,8 +23,9 @@ SlidingAllan::SlidingAllan(const SlidingAllanOptions& options) : opt_(options) {
   m_ = tauGridFactors(opt_.grid, opt_.window_samples / 2);
   if (m_.empty()) throw std::invalid_argument("SlidingAllan: tau grid has no averaging factor");
   cap_ = opt_.window_samples + 1;
+  // The ring starts small and doubles as the window fills (a long window costs memory only once it holds samples).
   int64_t size = 1;
-  while (size < cap_ + 1) size <<= 1;
+  while (size < std::min<int64_t>(cap_ + 1, int64_t(1) << 16)) size <<= 1;
   buf_.assign(static_cast<size_t>(size), 0.0);
   mask_ = size - 1;
   sum_.assign(m_.size(), 0.0L);
@@ -73,6 +74,13 @@ void SlidingAllan::removeOldest() {
 
 void SlidingAllan::pushPhase(double x) {
   if (head_ - start_ >= cap_) removeOldest();
+  if (head_ - start_ + 1 > mask_) {  // full ring (it holds at most mask_ points): twice the size, same indices
+    std::vector<double> bigger(buf_.size() * 2);
+    const int64_t mask = static_cast<int64_t>(bigger.size()) - 1;
+    for (int64_t i = start_; i < head_; ++i) bigger[static_cast<size_t>(i & mask)] = buf_[static_cast<size_t>(i & mask_)];
+    buf_.swap(bigger);
+    mask_ = mask;
+  }
   const int64_t n = head_;
   buf_[n & mask_] = x;
   ++head_;
