@@ -103,6 +103,8 @@ class OnlineAnalyzer {
   const OnlineOptions& options() const { return options_; }
   const OnlineCounters& counters() const { return counters_; }
   size_t windowSize() const { return window_.size(); }
+  /// The input's newest stamp as the window and clocks see it (median of the last three non-zero stamps) [ns], 0 before.
+  int64_t newestStamp() const { return now_ns(); }
   /// Span of the window's stamps [s] (newest reference minus oldest), 0 when empty.
   double windowSpan() const;
 

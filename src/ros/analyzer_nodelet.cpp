@@ -35,6 +35,7 @@ void AnalyzerNodelet::onInit() {
   noise_pub_ = pnh.advertise<NoiseReport>("noise", 10, true);  // latched: a late subscriber gets the last result
   // latched; published while ~gmwm is on, and once with status "off" when it is turned off
   noise_model_pub_ = pnh.advertise<NoiseModel>("noise_model", 10, true);
+  quick_pub_ = pnh.advertise<QuickNoise>("quick", 10, true);  // latched, as ~noise
   if (p_.publish_plot && rasterAvailable()) plot_pub_ = pnh.advertise<sensor_msgs::Image>("plot", 1);
   const char* axes[3] = {"x", "y", "z"};
   if (p_.publish_curves)
@@ -54,6 +55,7 @@ void AnalyzerNodelet::onInit() {
   updater_->add("fit quality", [this](Wrapper& s) { diagFit(diagState(), params(), s); });
   updater_->add("noise model", [this](Wrapper& s) { diagNoiseModel(diagState(), params(), s); });
   updater_->add("quality verdict", [this](Wrapper& s) { diagQuality(diagState(), s); });
+  updater_->add("answers", [this](Wrapper& s) { diagAnswers(diagState(), params(), s); });
   for (int t = 0; t < kNumTerms; ++t)
     updater_->add(kTermLabel[t], [this, t](Wrapper& s) { diagTerm(t, diagState(), params(), s); });
   diag_timer_ = nh.createTimer(ros::Duration(p_.diagnostic_period), [this](const ros::TimerEvent&) { updater_->force_update(); });
@@ -70,8 +72,8 @@ void AnalyzerNodelet::onInit() {
   // The same queue as the rate: a fixed 1000 can drop readings when a bag's worth (nodelet_closed_loop: 1200) arrives
   // at once while the callback thread lags. Suspected, not reproduced, cause of that test's rare failure under load.
   temp_sub_ = nh.subscribe("temperature", q, &AnalyzerNodelet::temperatureCallback, this);
-  NODELET_INFO("gyro_allan analyzer: input %s, window %g s, hop %g s, method %s%s%s%s", p_.input.c_str(),
-               p_.online.window_s, p_.online.hop_s, p_.method.c_str(),
+  NODELET_INFO("gyro_allan analyzer: input %s, window %g s, hop %g s, quick answers every %g s, method %s%s%s%s",
+               p_.input.c_str(), p_.online.window_s, p_.online.hop_s, p_.online.update_s, p_.method.c_str(),
                p_.online.pipeline.analysis.model_check ? " + model check" : "",
                p_.online.pipeline.rest_check ? " + at-rest check" : "",
                p_.online.pipeline.analysis.gmwm ? " + GMWM noise model" : "");
@@ -93,30 +95,69 @@ void AnalyzerNodelet::temperatureCallback(const sensor_msgs::Temperature::ConstP
 
 void AnalyzerNodelet::addSample(const std::string& source, const std_msgs::Header& h, const std::array<double, 3>& g,
                                 const std::array<double, 3>& a) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  if (source_.empty()) {  // the first topic that delivers is the input (input: auto)
-    source_ = source;
-    topic_ = source == "imu" ? imu_sub_.getTopic() : angle_sub_.getTopic();
-    if (source == "angle") {
-      OnlineOptions o = p_.online;
-      o.pipeline.analysis.input = InputKind::Angle;
-      o.pipeline.analysis.angle_increments = p_.angle_mode == "increment";
-      o.pipeline.accel = false;
-      p_.online = o;
-      oa_->setOptions(o);
+  std::unique_ptr<QuickAnswer> quick;  // a due quick answer, fitted and published after the lock
+  AnalyzerParams p;
+  std::string frame;
+  double full_age = -1;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (source_.empty()) {  // the first topic that delivers is the input (input: auto)
+      source_ = source;
+      topic_ = source == "imu" ? imu_sub_.getTopic() : angle_sub_.getTopic();
+      if (source == "angle") {
+        OnlineOptions o = p_.online;
+        o.pipeline.analysis.input = InputKind::Angle;
+        o.pipeline.analysis.angle_increments = p_.angle_mode == "increment";
+        o.pipeline.accel = false;
+        p_.online = o;
+        oa_->setOptions(o);
+      }
+      NODELET_INFO("gyro_allan analyzer: input from %s (%s)", topic_.c_str(), source.c_str());
+    } else if (source != source_) {
+      ++other_source_;
+      return;
     }
-    NODELET_INFO("gyro_allan analyzer: input from %s (%s)", topic_.c_str(), source.c_str());
-  } else if (source != source_) {
-    ++other_source_;
-    return;
+    if (!hwid_set_ && p_.hardware_id.empty() && !h.frame_id.empty()) {
+      updater_->setHardwareID(h.frame_id);
+      hwid_set_ = true;
+    }
+    frame_id_ = h.frame_id;
+    oa_->addSample(static_cast<int64_t>(h.stamp.toNSec()), g, a);
+    if (oa_->hopDue() && !startAnalysis()) oa_->skipHop();
+    if (oa_->quickDue()) {
+      quick = std::make_unique<QuickAnswer>(oa_->takeQuick());
+      p = p_;
+      frame = frame_id_;
+      if (have_good_) full_age = 1e-9 * static_cast<double>(quick->newest_ns - last_good_.last_ns);
+    }
   }
-  if (!hwid_set_ && p_.hardware_id.empty() && !h.frame_id.empty()) {
-    updater_->setHardwareID(h.frame_id);
-    hwid_set_ = true;
+  if (quick) publishQuick(std::move(*quick), p, frame, full_age);
+}
+
+void AnalyzerNodelet::publishQuick(QuickAnswer&& q, const AnalyzerParams& p, const std::string& frame,
+                                   double full_age_s) {
+  OnlineAnalyzer::fitQuick(&q, p.online.pipeline);
+  const QuickNoise m = toQuickNoise(q, frame, full_age_s);
+  quick_pub_.publish(m);
+  if (p.publish_curves)
+    for (size_t i = 0; i < q.axes.size() && i < 3; ++i) curve_pub_[i].publish(toCurve(q.axes[i], m.header, true));
+  if (plot_pub_ && plot_pub_.getNumSubscribers() > 0) {
+    char title[160], note[160];
+    std::snprintf(title, sizeof title, "gyro_allan oadev  %lld samples  %.0f s  %.4g Hz", static_cast<long long>(q.samples),
+                  static_cast<double>(q.samples) * q.tau0, m.rate_hz);
+    if (full_age_s >= 0)
+      std::snprintf(note, sizeof note, "quick answer (per-sample oadev + IEEE fit); full analysis %.0f s old on ~noise", full_age_s);
+    else
+      std::snprintf(note, sizeof note, "quick answer (per-sample oadev + IEEE fit); no full analysis yet");
+    try {
+      plot_pub_.publish(plotMessage(q.axes, m.header, title, note, p));
+    } catch (const std::exception& e) {
+      NODELET_WARN_THROTTLE(30.0, "gyro_allan analyzer: plot not rendered: %s", e.what());
+    }
   }
-  frame_id_ = h.frame_id;
-  oa_->addSample(static_cast<int64_t>(h.stamp.toNSec()), g, a);
-  if (oa_->hopDue() && !startAnalysis()) oa_->skipHop();
+  std::lock_guard<std::mutex> lock(mutex_);
+  last_quick_ = m;
+  have_quick_ = true;
 }
 
 bool AnalyzerNodelet::startAnalysis() {
@@ -173,8 +214,11 @@ void AnalyzerNodelet::publish(const OnlineResult& r, double temperature) {
   if (p.publish_curves)
     for (size_t a = 0; a < r.result.gyro.size() && a < 3; ++a) curve_pub_[a].publish(toCurve(r.result.gyro[a], report.header));
   if (plot_pub_ && plot_pub_.getNumSubscribers() > 0) {
+    char title[160];
+    std::snprintf(title, sizeof title, "gyro_allan oadev  %lld samples  %.0f s window  %.4g Hz",
+                  static_cast<long long>(report.samples), (report.window_end - report.window_start).toSec(), report.rate_hz);
     try {
-      plot_pub_.publish(plotMessage(r.result, report, p));
+      plot_pub_.publish(plotMessage(r.result.gyro, report.header, title, "full analysis (~noise)", p));
     } catch (const std::exception& e) {
       NODELET_WARN_THROTTLE(30.0, "gyro_allan analyzer: plot not rendered: %s", e.what());
     }
@@ -315,6 +359,9 @@ DiagState AnalyzerNodelet::diagState() {
   s.source = source_;
   s.other_source = other_source_;
   s.param_problems = param_problems_;
+  s.newest_ns = oa_->newestStamp();
+  s.have_quick = have_quick_;
+  s.last_quick = last_quick_;
   return s;
 }
 

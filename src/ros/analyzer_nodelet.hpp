@@ -40,6 +40,8 @@ class AnalyzerNodelet : public nodelet::Nodelet {
   bool startAnalysis();
   void workerLoop();
   void publish(const OnlineResult& r, double temperature);
+  /// Fits a quick answer and publishes ~quick, ~allan/* (quick) and ~plot; called off the lock.
+  void publishQuick(QuickAnswer&& q, const AnalyzerParams& p, const std::string& frame, double full_age_s);
   bool resetService(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res);
   bool saveService(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res);
   bool analyzeService(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res);
@@ -50,7 +52,7 @@ class AnalyzerNodelet : public nodelet::Nodelet {
   AnalyzerParams p_;
   std::unique_ptr<OnlineAnalyzer> oa_;
   ros::Subscriber imu_sub_, angle_sub_, temp_sub_;
-  ros::Publisher noise_pub_, noise_model_pub_, plot_pub_;
+  ros::Publisher noise_pub_, noise_model_pub_, plot_pub_, quick_pub_;
   std::array<ros::Publisher, 3> curve_pub_;
   ros::ServiceServer reset_srv_, save_srv_, analyze_srv_;
   std::unique_ptr<dynamic_reconfigure::Server<AnalyzerConfig>> dyn_;
@@ -76,6 +78,8 @@ class AnalyzerNodelet : public nodelet::Nodelet {
   NoiseReport last_report_;    ///< the last published ~noise
   bool have_noise_model_ = false;
   NoiseModel last_noise_model_;  ///< the last published ~noise_model
+  bool have_quick_ = false;
+  QuickNoise last_quick_;      ///< the last published ~quick
 };
 
 }  // namespace gyro_allan

@@ -182,6 +182,8 @@ AnalyzerParams loadAnalyzerParams(const ros::NodeHandle& pnh, std::vector<std::s
   r.get("min_fit_samples", &min_fit);
   if (min_fit < 10) invalid("min_fit_samples", "must be >= 10", "1000"), min_fit = 1000;
   o.min_samples = min_fit;
+  r.get("update_s", &o.update_s);
+  if (!(o.update_s >= 0) || o.update_s > 1e6) invalid("update_s", "must be in [0, 1e6] s", "5"), o.update_s = 5;
   r.get("input", &p.input);
   if (p.input != "imu" && p.input != "angle" && p.input != "auto")
     invalid("input", "must be imu, angle or auto", "auto"), p.input = "auto";
@@ -270,6 +272,7 @@ std::string applyConfig(AnalyzerConfig& c, AnalyzerParams* p) {
   AnalyzerParams n = *p;
   n.online.window_s = c.window_s;
   n.online.hop_s = c.hop_s;
+  n.online.update_s = c.update_s;
   n.method = c.method;
   n.online.pipeline.analysis.method = c.method;
   n.online.pipeline.analysis.wavelet_split = c.wavelet_split;
@@ -297,6 +300,7 @@ AnalyzerConfig toConfig(const AnalyzerParams& p) {
   AnalyzerConfig c;
   c.window_s = p.online.window_s;
   c.hop_s = p.online.hop_s;
+  c.update_s = p.online.update_s;
   c.method = p.method;
   c.wavelet_split = p.online.pipeline.analysis.wavelet_split;
   c.model_check = p.online.pipeline.analysis.model_check;
@@ -369,11 +373,12 @@ NoiseModel noiseModelOff(const ros::Time& stamp, const std::string& frame_id) {
   return m;
 }
 
-AllanCurve toCurve(const AxisAnalysis& a, const std_msgs::Header& header) {
+AllanCurve toCurve(const AxisAnalysis& a, const std_msgs::Header& header, bool quick) {
   AllanCurve cm;
   cm.header = header;
   cm.axis = a.axis;
   cm.deviation = "oadev";
+  cm.quick = quick;
   cm.tau0 = a.oadev.tau0;
   for (const auto& pt : a.oadev.points) {
     cm.tau.push_back(pt.tau);
@@ -400,9 +405,29 @@ AllanCurve toCurve(const AxisAnalysis& a, const std_msgs::Header& header) {
   return cm;
 }
 
-sensor_msgs::Image plotMessage(const PipelineResult& r, const NoiseReport& report, const AnalyzerParams& p) {
+QuickNoise toQuickNoise(const QuickAnswer& q, const std::string& frame_id, double full_age_s) {
+  QuickNoise m;
+  m.header.stamp = fromNs(q.newest_ns);
+  m.header.frame_id = frame_id;
+  m.window_start = fromNs(q.window_first_ns);
+  m.samples = q.samples;
+  m.segments = q.segments;
+  m.rate_hz = q.tau0 > 0 ? 1.0 / q.tau0 : 0;
+  m.full_age_s = full_age_s;
+  for (const AxisAnalysis& a : q.axes) {
+    AxisNoiseFit f = toAxisMsg(a);
+    f.model_check_note = "quick answer: no model check";
+    f.quality = "";
+    f.quality_reason = "quick answer: the verdict comes with the full analysis on ~noise";
+    m.axes.push_back(f);
+  }
+  return m;
+}
+
+sensor_msgs::Image plotMessage(const std::vector<AxisAnalysis>& axes, const std_msgs::Header& header,
+                               const std::string& title, const std::string& note, const AnalyzerParams& p) {
   std::vector<PlotSeries> series;
-  for (const AxisAnalysis& a : r.gyro) {
+  for (const AxisAnalysis& a : axes) {
     PlotSeries s;
     s.name = a.axis;
     s.curve = &a.oadev;
@@ -410,12 +435,9 @@ sensor_msgs::Image plotMessage(const PipelineResult& r, const NoiseReport& repor
       for (double v : a.final_model_var) s.model_adev.push_back(std::sqrt(std::max(0.0, v)));
     series.push_back(s);
   }
-  char title[160];
-  std::snprintf(title, sizeof title, "gyro_allan oadev  %lld samples  %.0f s window  %.4g Hz",
-                static_cast<long long>(report.samples), (report.window_end - report.window_start).toSec(), report.rate_hz);
-  RgbImage im = renderRaster(seriesFigure(series, title, "", p.plot_width, p.plot_height));
+  RgbImage im = renderRaster(seriesFigure(series, title, note, p.plot_width, p.plot_height));
   sensor_msgs::Image msg;
-  msg.header = report.header;
+  msg.header = header;
   msg.width = static_cast<uint32_t>(im.width);
   msg.height = static_cast<uint32_t>(im.height);
   msg.encoding = "rgb8";
@@ -611,6 +633,29 @@ void diagQuality(const DiagState& s, diagnostic_updater::DiagnosticStatusWrapper
     stat.add("verdict " + a.axis, a.quality + ": " + a.quality_reason);
   }
   stat.summary(static_cast<unsigned char>(worst), worst ? msg : "all axes good");
+}
+
+void diagAnswers(const DiagState& s, const AnalyzerParams& p, diagnostic_updater::DiagnosticStatusWrapper& stat) {
+  auto age = [&s](int64_t ns) { return 1e-9 * static_cast<double>(s.newest_ns - ns); };
+  const double full_age = s.have_good ? age(s.last_report.window_end.toNSec()) : -1;
+  const double quick_age = s.have_quick ? age(s.last_quick.header.stamp.toNSec()) : -1;
+  char buf[200];
+  std::string full = s.have_good ? (std::snprintf(buf, sizeof buf, "full answer %.0f s old", full_age), buf)
+                                 : "no full answer yet (first after hop_s " + std::to_string(static_cast<int>(p.online.hop_s)) + " s)";
+  std::string quick;
+  if (p.online.update_s <= 0) quick = "quick answers off (update_s 0)";
+  else if (s.have_quick) quick = (std::snprintf(buf, sizeof buf, "quick answer %.1f s old", quick_age), buf);
+  else quick = "no quick answer yet (first after min_fit_samples " + std::to_string(p.online.min_samples) + " samples)";
+  stat.summary(diagnostic_msgs::DiagnosticStatus::OK, full + ", " + quick);
+  stat.add("full answer", "~noise and ~allan/* with quick: false; the whole pipeline every hop_s");
+  stat.add("full answer: age [s, input time]", s.have_good ? std::to_string(full_age) : "none");
+  stat.add("quick answer", "~quick and ~allan/* with quick: true; the window's oadev kept per sample, IEEE fit every update_s");
+  stat.add("quick answer: age [s, input time]", s.have_quick ? std::to_string(quick_age) : "none");
+  stat.add("quick answer: period update_s [s]", p.online.update_s);
+  if (s.have_quick)
+    for (const AxisNoiseFit& a : s.last_quick.axes)
+      if (a.fit_ok)
+        stat.add("quick N " + a.axis + " [deg/sqrt(h)]", a.angle_random_walk.value * conventionalFactor(kAngleRandomWalk));
 }
 
 void diagTerm(int term, const DiagState& s, const AnalyzerParams& p, diagnostic_updater::DiagnosticStatusWrapper& stat) {

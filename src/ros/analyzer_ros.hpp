@@ -12,6 +12,7 @@
 #include <gyro_allan/AnalyzerConfig.h>
 #include <gyro_allan/NoiseModel.h>
 #include <gyro_allan/NoiseReport.h>
+#include <gyro_allan/QuickNoise.h>
 #include <ros/ros.h>
 #include <sensor_msgs/Image.h>
 
@@ -63,10 +64,13 @@ NoiseModel toNoiseModel(const OnlineResult& r, const AnalyzerParams& p, const st
 NoiseModel noiseModelOff(const ros::Time& stamp, const std::string& frame_id);
 /// True when some gyro axis of the result carries a GMWM stage (then ~noise_model and ~save's noise_model.yaml).
 bool hasNoiseModel(const PipelineResult& r);
-/// ~allan/<axis> message of one axis.
-AllanCurve toCurve(const AxisAnalysis& a, const std_msgs::Header& header);
-/// ~plot image of the window's curves and models (throws when rendering is unavailable).
-sensor_msgs::Image plotMessage(const PipelineResult& r, const NoiseReport& report, const AnalyzerParams& p);
+/// ~allan/<axis> message of one axis (quick: from a quick answer).
+AllanCurve toCurve(const AxisAnalysis& a, const std_msgs::Header& header, bool quick = false);
+/// ~quick message of a fitted quick answer; full_age_s: input time since the last full answer's window ended (-1: none).
+QuickNoise toQuickNoise(const QuickAnswer& q, const std::string& frame_id, double full_age_s);
+/// ~plot image of the axes' curves and models, title and a note line under it (throws when rendering is unavailable).
+sensor_msgs::Image plotMessage(const std::vector<AxisAnalysis>& axes, const std_msgs::Header& header,
+                               const std::string& title, const std::string& note, const AnalyzerParams& p);
 /// Mean of a job's temperature readings (NaN when none).
 double meanTemperature(const OnlineJob& job);
 /// report.yaml's "method" for these params, as analyze_bag names its --method: "gmwm" for auto with the GMWM stage on
@@ -89,6 +93,9 @@ struct DiagState {
   std::string source;              ///< "imu", "angle" or "" while waiting
   uint64_t other_source = 0;       ///< messages of the other input topic ignored
   std::vector<std::string> param_problems;  ///< from loading and refused reconfigures
+  int64_t newest_ns = 0;           ///< the input's newest stamp (OnlineAnalyzer::newestStamp)
+  bool have_quick = false;
+  QuickNoise last_quick;           ///< the last published ~quick
 };
 
 /// Per-class "recently" tracking of cumulative counters for WARN levels (ROS time).
@@ -112,6 +119,8 @@ void diagParams(const DiagState& s, diagnostic_updater::DiagnosticStatusWrapper&
 void diagFit(const DiagState& s, const AnalyzerParams& p, diagnostic_updater::DiagnosticStatusWrapper& stat);
 void diagNoiseModel(const DiagState& s, const AnalyzerParams& p, diagnostic_updater::DiagnosticStatusWrapper& stat);
 void diagQuality(const DiagState& s, diagnostic_updater::DiagnosticStatusWrapper& stat);
+/// Which answer is which and how old each is (input time): the full analysis (~noise) and the quick answer (~quick).
+void diagAnswers(const DiagState& s, const AnalyzerParams& p, diagnostic_updater::DiagnosticStatusWrapper& stat);
 void diagTerm(int term, const DiagState& s, const AnalyzerParams& p, diagnostic_updater::DiagnosticStatusWrapper& stat);
 extern const char* const kTermLabel[kNumTerms];
 
