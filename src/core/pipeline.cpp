@@ -214,17 +214,18 @@ struct PipelineRun {
   void startAccelSanitize() {
     scanAccelPublished();
     if (!accelPresent() || !accel_published || options.jobs == 1) return;
+    if (compact) t = t_c.toSeconds();  // one copy of the stamps for both sanitations (freed once both are done)
     try {
-      accel_sanitized = std::async(std::launch::async, [this] { sanitizeAccel(); });
+      accel_sanitized = std::async(std::launch::async, [this] { sanitizeAccel(t); });
     } catch (const std::system_error&) {
       // no thread to be had: the graph's accelerometer task sanitizes it instead (as with jobs = 1)
     }
   }
 
-  /// The accelerometer's stamps and samples sanitized into sa (an error into accel_sanitize_error).
-  void sanitizeAccel() {
+  /// The accelerometer's samples at the stamps t_seconds sanitized into sa (an error into accel_sanitize_error).
+  void sanitizeAccel(const std::vector<double>& t_seconds) {
     try {
-      sa = sanitizeCompact(t_c.toSeconds(), {&accel[0], &accel[1], &accel[2]}, so);
+      sa = sanitizeCompact(t_seconds, {&accel[0], &accel[1], &accel[2]}, so);
     } catch (const std::exception& e) {
       accel_sanitize_error = e.what();
     }
@@ -235,6 +236,7 @@ struct PipelineRun {
   void settleAccelSanitize() {
     if (!accel_sanitized.valid()) return;
     accel_sanitized.get();
+    if (compact) std::vector<double>().swap(t);  // the stamps both sanitations read
     if (!accel_published) {
       sa = SanitizedSeries();
       accel_settled = true;
@@ -257,7 +259,7 @@ struct PipelineRun {
   /// Checks the input's shape, sanitizes the stamps and gyro samples, and takes the stamp report and tau0 into meta.
   void sanitizeGyro(StampReport* counted) {
     if (compact) {
-      t = t_c.toSeconds();
+      if (t.empty()) t = t_c.toSeconds();  // else already made for the accelerometer's sanitation beside this one
     } else {
       if (values.empty() || values.size() > 3) throw std::invalid_argument("1 to 3 value columns expected");
       if (names.size() != values.size()) throw std::invalid_argument("one name per value column expected");
@@ -270,7 +272,8 @@ struct PipelineRun {
       ss = sanitize(t, ptrs, so);
       for (auto& v : values) std::vector<double>().swap(v);
     }
-    if (compact) std::vector<double>().swap(t);  // rebuilt from t_c for the accelerometer
+    // Freed now unless the accelerometer's sanitation still reads it (then settleAccelSanitize frees it).
+    if (compact && !accel_sanitized.valid()) std::vector<double>().swap(t);
     releaseFreed();
     profileStage("sanitize");
     meta.stamps = ss.report;
@@ -420,7 +423,7 @@ struct PipelineRun {
     tasks.push_back([&] {
       try {
         if (!accel_settled) {  // jobs = 1, or the thread could not be started: sanitized here
-          sanitizeAccel();
+          sanitizeAccel(t_c.toSeconds());
           restrictAccel();
         }
         t_c.clear();
