@@ -46,7 +46,8 @@ class QuickView {
   /// The curves now, unfitted (ready() must be true; else throws std::logic_error).
   QuickAnswer curves() const;
   /// Fits each axis's curve as the full analysis fits its joint fit (fitWithModelEdf: the curve then carries the
-  /// model-based EDF and bounds).
+  /// model-based EDF and bounds), without the unified intervals: values and delta-method sigmas, `supported` when a
+  /// term's weight is 1.96 sigma above 0, interval ends and an unsupported term's sigma NaN.
   static void fit(QuickAnswer* q, const FitOptions& fit, double confidence);
   /// Starts over (the period is estimated again).
   void reset();

@@ -114,10 +114,12 @@ QuickAnswer QuickView::curves() const {
 }
 
 void QuickView::fit(QuickAnswer* q, const FitOptions& fit, double confidence) {
+  FitOptions quick = fit;
+  quick.intervals = false;  // the unified intervals cost ~50x the fit; the full analysis gives them every hop
   for (AxisAnalysis& a : q->axes) {
     if (a.oadev.points.empty()) continue;
     DeviationCurve weighted = a.oadev;
-    a.fit = fitWithModelEdf(&weighted, fit, confidence);
+    a.fit = fitWithModelEdf(&weighted, quick, confidence);
     if (!a.fit.ok) continue;
     a.oadev = std::move(weighted);
     a.coefficients = a.fit.terms;

@@ -1,0 +1,85 @@
+#!/usr/bin/env bash
+# Nodelet CPU benchmark: AnalyzerNodelet (standalone process, default parameters: window 1 h, hop 300 s, quick answers
+# every 5 s) fed a simulated 3-axis IMU by rosbag play at --speed x real time; prints the nodelet process's CPU time
+# (user + sys, /proc) per stretch of input and as a fraction of one core at real time (CPU seconds / input seconds),
+# once the window is full (steady state: a full analysis of the whole window every hop).
+# Usage: bench/nodelet_cpu.sh [--rate 1000] [--minutes 70] [--speed 10] [--dir DIR]
+# Needs a build (scripts/build.sh). The bag is generated once into DIR (default /tmp/gyro_allan_bench) and reused.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+export PATH=/usr/bin:/bin:$PATH
+rate=1000
+minutes=70
+speed=10
+dir=${GYRO_ALLAN_BENCH_DIR:-/tmp/gyro_allan_bench}
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --rate) rate=$2; shift 2 ;;
+    --minutes) minutes=$2; shift 2 ;;
+    --speed) speed=$2; shift 2 ;;
+    --dir) dir=$2; shift 2 ;;
+    *) echo "nodelet_cpu.sh: unknown option $1" >&2; exit 1 ;;
+  esac
+done
+bin=.build/devel/lib/gyro_allan
+[ -x "$bin/simulate" ] || { echo "nodelet_cpu.sh: $bin/simulate missing: run scripts/build.sh first" >&2; exit 1; }
+mkdir -p "$dir"
+duration=$((minutes * 60))
+bag="$dir/sim_${rate}hz_${duration}s.bag"
+if [ ! -s "$bag" ]; then
+  "$bin/simulate" --output "$bag" --rate "$rate" --duration "$duration" --seed 12 --arw 2e-4 --bias-instability 2e-5 \
+    --rrw 1e-6 --quantization 1e-6 --compression lz4 >/dev/null
+fi
+port=$(/usr/bin/python3 -c 'import socket; s = socket.socket(); s.bind(("localhost", 0)); print(s.getsockname()[1])')
+export ROS_MASTER_URI=http://localhost:$port ROS_HOSTNAME=localhost
+ROS_HOME=$(mktemp -d)
+export ROS_HOME ROS_LOG_DIR=$ROS_HOME/log
+set +u
+source .build/devel/setup.bash
+set -u
+pids=()
+cleanup() { for p in "${pids[@]}"; do kill "$p" 2>/dev/null || true; done; wait 2>/dev/null || true; rm -rf "$ROS_HOME"; }
+trap cleanup EXIT
+roscore -p "$port" >"$ROS_HOME/roscore.log" 2>&1 &
+pids+=($!)
+for _ in $(seq 100); do rosparam list >/dev/null 2>&1 && break; sleep 0.2; done
+rosrun nodelet nodelet standalone gyro_allan/AnalyzerNodelet __name:=analyzer --no-bond >"$ROS_HOME/nodelet.log" 2>&1 &
+pids+=($!)
+sleep 3
+npid=$(pgrep -f "__name:=analyzer" | head -1)
+[ -n "$npid" ] || { echo "nodelet_cpu.sh: the nodelet did not start" >&2; cat "$ROS_HOME/nodelet.log" >&2; exit 1; }
+tck=$(getconf CLK_TCK)
+cpu() { awk -v t="$tck" '{printf "%.2f", ($14 + $15) / t}' "/proc/$npid/stat"; }
+rss() { awk '/VmRSS/ {printf "%.0f", $2 / 1024}' "/proc/$npid/status"; }
+echo "machine: $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //'), load $(cut -d' ' -f1-3 /proc/loadavg)"
+echo "input: $bag ($rate Hz x 3 axes, $minutes min) played at ${speed}x; nodelet: default parameters (config/analyzer.yaml)"
+c0=$(cpu)
+rosbag play -q -r "$speed" "$bag" >/dev/null 2>&1 &
+play=$!
+pids+=($play)
+start=$(date +%s.%N)
+step=$(awk -v s="$speed" 'BEGIN{printf "%.3f", 300 / s}')  # 5 min of input per line
+printf '%-14s | %-12s | %-22s | %s\n' "input [min]" "CPU [s]" "core at real time [%]" "RSS [MB]"
+prev=$c0; prev_t=0; steady_cpu=0; steady_s=0
+while kill -0 "$play" 2>/dev/null; do
+  sleep "$step"
+  now=$(date +%s.%N)
+  t=$(awk -v a="$start" -v b="$now" -v s="$speed" 'BEGIN{printf "%.1f", (b - a) * s / 60}')
+  c=$(cpu)
+  d=$(awk -v a="$prev" -v b="$c" 'BEGIN{printf "%.2f", b - a}')
+  span=$(awk -v a="$prev_t" -v b="$t" 'BEGIN{printf "%.1f", (b - a) * 60}')
+  share=$(awk -v d="$d" -v s="$span" 'BEGIN{printf "%.2f", (s > 0 ? 100 * d / s : 0)}')
+  printf '%5.1f - %5.1f  | %12s | %22s | %s\n' "$prev_t" "$t" "$d" "$share" "$(rss)"
+  if awk -v a="$prev_t" 'BEGIN{exit !(a >= 60)}'; then  # window full: steady state
+    steady_cpu=$(awk -v x="$steady_cpu" -v d="$d" 'BEGIN{print x + d}')
+    steady_s=$(awk -v x="$steady_s" -v s="$span" 'BEGIN{print x + s}')
+  fi
+  prev=$c; prev_t=$t
+done
+diag=$(timeout 10 rostopic echo -n 3 /diagnostics 2>/dev/null || true)
+value() { echo "$diag" | grep -A1 "key: \"$1\"" | awk -F'"' '/value:/ {v = $2} END {print v}'; }
+echo "whole run: $(awk -v a="$c0" -v b="$(cpu)" 'BEGIN{printf "%.1f", b - a}') CPU s over $minutes min of input"
+if awk -v s="$steady_s" 'BEGIN{exit !(s > 0)}'; then
+  echo "window full (input >= 60 min): $(awk -v c="$steady_cpu" -v s="$steady_s" 'BEGIN{printf "%.2f %% of one core at real time (%.1f CPU s over %.0f s of input)", 100 * c / s, c, s}')"
+fi
+echo "full analyses: $(value "analyses (total)"), hops skipped: $(value "hops skipped, analysis busy (total)") (a skipped hop would hide a full analysis's cost)"
