@@ -3,7 +3,8 @@
 # every 5 s) fed a simulated 3-axis IMU by rosbag play at --speed x real time; prints the nodelet process's CPU time
 # (user + sys, /proc) per stretch of input and as a fraction of one core at real time (CPU seconds / input seconds),
 # once the window is full (steady state: a full analysis of the whole window every hop).
-# Usage: bench/nodelet_cpu.sh [--rate 1000] [--minutes 70] [--speed 10] [--dir DIR]
+# Usage: bench/nodelet_cpu.sh [--rate 1000] [--minutes 70] [--speed 10] [--dir DIR] [-- _param:=value ...]
+#   (after --: private parameters of the nodelet instead of the defaults, e.g. _update_s:=0)
 # Needs a build (scripts/build.sh). The bag is generated once into DIR (default /tmp/gyro_allan_bench) and reused.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -12,12 +13,14 @@ rate=1000
 minutes=70
 speed=10
 dir=${GYRO_ALLAN_BENCH_DIR:-/tmp/gyro_allan_bench}
+params=()
 while [ $# -gt 0 ]; do
   case "$1" in
     --rate) rate=$2; shift 2 ;;
     --minutes) minutes=$2; shift 2 ;;
     --speed) speed=$2; shift 2 ;;
     --dir) dir=$2; shift 2 ;;
+    --) shift; params=("$@"); break ;;
     *) echo "nodelet_cpu.sh: unknown option $1" >&2; exit 1 ;;
   esac
 done
@@ -43,7 +46,7 @@ trap cleanup EXIT
 roscore -p "$port" >"$ROS_HOME/roscore.log" 2>&1 &
 pids+=($!)
 for _ in $(seq 100); do rosparam list >/dev/null 2>&1 && break; sleep 0.2; done
-rosrun nodelet nodelet standalone gyro_allan/AnalyzerNodelet __name:=analyzer --no-bond >"$ROS_HOME/nodelet.log" 2>&1 &
+rosrun nodelet nodelet standalone gyro_allan/AnalyzerNodelet __name:=analyzer --no-bond "${params[@]}" >"$ROS_HOME/nodelet.log" 2>&1 &
 pids+=($!)
 sleep 3
 npid=$(pgrep -f "__name:=analyzer" | head -1)
@@ -52,13 +55,13 @@ tck=$(getconf CLK_TCK)
 cpu() { awk -v t="$tck" '{printf "%.2f", ($14 + $15) / t}' "/proc/$npid/stat"; }
 rss() { awk '/VmRSS/ {printf "%.0f", $2 / 1024}' "/proc/$npid/status"; }
 echo "machine: $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //'), load $(cut -d' ' -f1-3 /proc/loadavg)"
-echo "input: $bag ($rate Hz x 3 axes, $minutes min) played at ${speed}x; nodelet: default parameters (config/analyzer.yaml)"
+echo "input: $bag ($rate Hz x 3 axes, $minutes min) played at ${speed}x; nodelet: default parameters (config/analyzer.yaml) ${params[*]:-}"
 c0=$(cpu)
 rosbag play -q -r "$speed" "$bag" >/dev/null 2>&1 &
 play=$!
 pids+=($play)
 start=$(date +%s.%N)
-step=$(awk -v s="$speed" 'BEGIN{printf "%.3f", 300 / s}')  # 5 min of input per line
+step=$(awk -v s="$speed" -v l="${GYRO_ALLAN_BENCH_LINE_S:-300}" 'BEGIN{printf "%.3f", l / s}')  # 5 min of input per line
 printf '%-14s | %-12s | %-22s | %s\n' "input [min]" "CPU [s]" "core at real time [%]" "RSS [MB]"
 prev=$c0; prev_t=0; steady_cpu=0; steady_s=0
 while kill -0 "$play" 2>/dev/null; do
@@ -70,7 +73,8 @@ while kill -0 "$play" 2>/dev/null; do
   span=$(awk -v a="$prev_t" -v b="$t" 'BEGIN{printf "%.1f", (b - a) * 60}')
   share=$(awk -v d="$d" -v s="$span" 'BEGIN{printf "%.2f", (s > 0 ? 100 * d / s : 0)}')
   printf '%5.1f - %5.1f  | %12s | %22s | %s\n' "$prev_t" "$t" "$d" "$share" "$(rss)"
-  if awk -v a="$prev_t" 'BEGIN{exit !(a >= 60)}'; then  # window full: steady state
+  # window full (steady state: a full analysis of the whole window every hop), and the bag still playing to the end
+  if awk -v a="$prev_t" -v b="$t" -v m="$minutes" 'BEGIN{exit !(a >= 60 && b <= m)}'; then
     steady_cpu=$(awk -v x="$steady_cpu" -v d="$d" 'BEGIN{print x + d}')
     steady_s=$(awk -v x="$steady_s" -v s="$span" 'BEGIN{print x + s}')
   fi

@@ -17,6 +17,10 @@
 namespace gyro_allan {
 
 AnalyzerNodelet::~AnalyzerNodelet() {
+  sample_stop_ = true;
+  if (sample_thread_.joinable()) sample_thread_.join();
+  imu_sub_.shutdown();
+  angle_sub_.shutdown();
   {
     std::lock_guard<std::mutex> lock(mutex_);
     stop_ = true;
@@ -65,10 +69,19 @@ void AnalyzerNodelet::onInit() {
   dyn_->updateConfig(toConfig(p_));
   dyn_->setCallback([this](AnalyzerConfig& c, uint32_t level) { reconfigure(c, level); });
 
-  const auto hints = ros::TransportHints().tcpNoDelay();
+  // No TCP_NODELAY: the publisher's TCP may then send several samples per packet (the answers come every few seconds,
+  // a few ms of latency do not matter), and the samples have their own callback queue and thread: one wake-up takes
+  // every message queued by then, where the nodelet manager's queue hands each message to a worker thread. Receiving
+  // 1 kHz from another process is most of this process's CPU (docs/performance.md, the nodelet).
+  const auto hints = ros::TransportHints();
   const uint32_t q = static_cast<uint32_t>(p_.queue_size);
-  if (p_.input != "angle") imu_sub_ = nh.subscribe("imu", q, &AnalyzerNodelet::imuCallback, this, hints);
-  if (p_.input != "imu") angle_sub_ = nh.subscribe("angle", q, &AnalyzerNodelet::angleCallback, this, hints);
+  ros::NodeHandle sample_nh(nh);
+  sample_nh.setCallbackQueue(&sample_queue_);
+  if (p_.input != "angle") imu_sub_ = sample_nh.subscribe("imu", q, &AnalyzerNodelet::imuCallback, this, hints);
+  if (p_.input != "imu") angle_sub_ = sample_nh.subscribe("angle", q, &AnalyzerNodelet::angleCallback, this, hints);
+  sample_thread_ = std::thread([this] {
+    while (!sample_stop_) sample_queue_.callAvailable(ros::WallDuration(0.1));
+  });
   // The same queue as the rate: a fixed 1000 can drop readings when a bag's worth (nodelet_closed_loop: 1200) arrives
   // at once while the callback thread lags. Suspected, not reproduced, cause of that test's rare failure under load.
   temp_sub_ = nh.subscribe("temperature", q, &AnalyzerNodelet::temperatureCallback, this);

@@ -2,6 +2,7 @@
 // analysis as analyze_bag on a sliding window (worker thread), messages, services and diagnostics out.
 #pragma once
 
+#include <atomic>
 #include <condition_variable>
 #include <memory>
 #include <mutex>
@@ -12,6 +13,7 @@
 #include <dynamic_reconfigure/server.h>
 #include <geometry_msgs/Vector3Stamped.h>
 #include <nodelet/nodelet.h>
+#include <ros/callback_queue.h>
 #include <ros/ros.h>
 #include <sensor_msgs/Image.h>
 #include <sensor_msgs/Imu.h>
@@ -52,6 +54,9 @@ class AnalyzerNodelet : public nodelet::Nodelet {
   AnalyzerParams p_;
   std::unique_ptr<OnlineAnalyzer> oa_;
   ros::Subscriber imu_sub_, angle_sub_, temp_sub_;
+  ros::CallbackQueue sample_queue_;  ///< imu / angle messages, served by sample_thread_
+  std::thread sample_thread_;
+  std::atomic<bool> sample_stop_{false};
   ros::Publisher noise_pub_, noise_model_pub_, plot_pub_, quick_pub_;
   std::array<ros::Publisher, 3> curve_pub_;
   ros::ServiceServer reset_srv_, save_srv_, analyze_srv_;
