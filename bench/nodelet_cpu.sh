@@ -1,10 +1,14 @@
 #!/usr/bin/env bash
-# Nodelet CPU benchmark: AnalyzerNodelet (standalone process, default parameters: window 1 h, hop 300 s, quick answers
-# every 5 s) fed a simulated 3-axis IMU by rosbag play at --speed x real time; prints the nodelet process's CPU time
-# (user + sys, /proc) per stretch of input and as a fraction of one core at real time (CPU seconds / input seconds),
-# once the window is full (steady state: a full analysis of the whole window every hop).
-# Usage: bench/nodelet_cpu.sh [--rate 1000] [--minutes 70] [--speed 10] [--dir DIR] [-- _param:=value ...]
-#   (after --: private parameters of the nodelet instead of the defaults, e.g. _update_s:=0)
+# Nodelet CPU benchmark: AnalyzerNodelet (default parameters: window 1 h, hop 300 s, quick answers every 5 s) fed a
+# simulated 3-axis IMU at --speed x real time; prints the analyzer's CPU time (user + sys, /proc) per stretch of input
+# and as a fraction of one core at real time (CPU seconds / input seconds), and its mean once the window is full
+# (steady state: a full analysis of the whole window every hop). Two set-ups:
+#   default: the analyzer standalone (its own process), the samples from `rosbag play` (TCP, serialized);
+#   --in-process: the analyzer and gyro_allan/BagPlayerNodelet in one nodelet manager, as beside a driver's nodelet
+#   (samples by pointer); the player thread's own CPU (bag reading) is left out.
+# Usage: bench/nodelet_cpu.sh [--rate 1000] [--minutes 70] [--speed 10] [--in-process] [--dir DIR] [-- _param:=value ...]
+#   (after --: private parameters of the analyzer instead of the defaults, e.g. _update_s:=0)
+# GYRO_ALLAN_BENCH_LINE_S: seconds of input per printed line (default 300).
 # Needs a build (scripts/build.sh). The bag is generated once into DIR (default /tmp/gyro_allan_bench) and reused.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -14,12 +18,14 @@ minutes=70
 speed=10
 dir=${GYRO_ALLAN_BENCH_DIR:-/tmp/gyro_allan_bench}
 params=()
+in_process=0
 while [ $# -gt 0 ]; do
   case "$1" in
     --rate) rate=$2; shift 2 ;;
     --minutes) minutes=$2; shift 2 ;;
     --speed) speed=$2; shift 2 ;;
     --dir) dir=$2; shift 2 ;;
+    --in-process) in_process=1; shift ;;
     --) shift; params=("$@"); break ;;
     *) echo "nodelet_cpu.sh: unknown option $1" >&2; exit 1 ;;
   esac
@@ -41,30 +47,60 @@ set +u
 source .build/devel/setup.bash
 set -u
 pids=()
-cleanup() { for p in "${pids[@]}"; do kill "$p" 2>/dev/null || true; done; wait 2>/dev/null || true; rm -rf "$ROS_HOME"; }
+cleanup() {
+  for p in "${pids[@]}"; do kill "$p" 2>/dev/null || true; done
+  wait 2>/dev/null || true
+  [ -z "${GYRO_ALLAN_BENCH_KEEP_LOGS:-}" ] && rm -rf "$ROS_HOME" || echo "logs: $ROS_HOME"
+}
 trap cleanup EXIT
 roscore -p "$port" >"$ROS_HOME/roscore.log" 2>&1 &
 pids+=($!)
 for _ in $(seq 100); do rosparam list >/dev/null 2>&1 && break; sleep 0.2; done
-rosrun nodelet nodelet standalone gyro_allan/AnalyzerNodelet __name:=analyzer --no-bond "${params[@]}" >"$ROS_HOME/nodelet.log" 2>&1 &
-pids+=($!)
-sleep 3
-npid=$(pgrep -f "__name:=analyzer" | head -1)
-[ -n "$npid" ] || { echo "nodelet_cpu.sh: the nodelet did not start" >&2; cat "$ROS_HOME/nodelet.log" >&2; exit 1; }
+if [ "$in_process" = 1 ]; then
+  rosrun nodelet nodelet manager __name:=manager >"$ROS_HOME/manager.log" 2>&1 &
+  pids+=($!)
+  sleep 2
+  rosrun nodelet nodelet load gyro_allan/AnalyzerNodelet manager __name:=analyzer --no-bond "${params[@]}" \
+    >"$ROS_HOME/nodelet.log" 2>&1 &
+  pids+=($!)
+  sleep 3
+  npid=$(pgrep -f "__name:=manager" | head -1)
+else
+  rosrun nodelet nodelet standalone gyro_allan/AnalyzerNodelet __name:=analyzer --no-bond "${params[@]}" \
+    >"$ROS_HOME/nodelet.log" 2>&1 &
+  pids+=($!)
+  sleep 3
+  npid=$(pgrep -f "__name:=analyzer" | head -1)
+fi
+[ -n "$npid" ] || { echo "nodelet_cpu.sh: the nodelet did not start" >&2; cat "$ROS_HOME"/*.log >&2; exit 1; }
 tck=$(getconf CLK_TCK)
-cpu() { awk -v t="$tck" '{printf "%.2f", ($14 + $15) / t}' "/proc/$npid/stat"; }
+# The process's CPU, less the bag player thread's (in-process set-up)
+cpu() {
+  local player=0 f
+  for f in /proc/"$npid"/task/*/stat; do
+    if grep -q "(bag_player)" "$f" 2>/dev/null; then player=$(awk '{print $14 + $15}' "$f"); fi
+  done
+  awk -v t="$tck" -v p="$player" '{printf "%.2f", ($14 + $15 - p) / t}' "/proc/$npid/stat"
+}
 rss() { awk '/VmRSS/ {printf "%.0f", $2 / 1024}' "/proc/$npid/status"; }
 echo "machine: $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //'), load $(cut -d' ' -f1-3 /proc/loadavg)"
-echo "input: $bag ($rate Hz x 3 axes, $minutes min) played at ${speed}x; nodelet: default parameters (config/analyzer.yaml) ${params[*]:-}"
+setup=$([ "$in_process" = 1 ] && echo "in one nodelet manager with BagPlayerNodelet" || echo "standalone, from rosbag play")
+echo "input: $bag ($rate Hz x 3 axes, $minutes min) at ${speed}x; analyzer $setup; default parameters ${params[*]:-}"
 c0=$(cpu)
-rosbag play -q -r "$speed" "$bag" >/dev/null 2>&1 &
+if [ "$in_process" = 1 ]; then
+  rosrun nodelet nodelet load gyro_allan/BagPlayerNodelet manager __name:=player --no-bond _bag:="$bag" \
+    _speed:="$speed" >"$ROS_HOME/player.log" 2>&1 &
+else
+  rosrun rosbag play -q -r "$speed" "$bag" >/dev/null 2>&1 &
+fi
 play=$!
 pids+=($play)
 start=$(date +%s.%N)
 step=$(awk -v s="$speed" -v l="${GYRO_ALLAN_BENCH_LINE_S:-300}" 'BEGIN{printf "%.3f", l / s}')  # 5 min of input per line
 printf '%-14s | %-12s | %-22s | %s\n' "input [min]" "CPU [s]" "core at real time [%]" "RSS [MB]"
 prev=$c0; prev_t=0; steady_cpu=0; steady_s=0
-while kill -0 "$play" 2>/dev/null; do
+played() { awk -v a="$start" -v b="$(date +%s.%N)" -v s="$speed" -v m="$minutes" 'BEGIN{exit !((b - a) * s / 60 > m + 0.5)}'; }
+while kill -0 "$play" 2>/dev/null && ! played; do
   sleep "$step"
   now=$(date +%s.%N)
   t=$(awk -v a="$start" -v b="$now" -v s="$speed" 'BEGIN{printf "%.1f", (b - a) * s / 60}')
