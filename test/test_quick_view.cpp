@@ -59,6 +59,7 @@ TEST(QuickView, CurveIsTheBatchOadevAndNAgreesWithTheFullAnalysis) {
   std::vector<double> x;
   for (const auto& g : rec.g) x.push_back(g[0]);
   DeviationOptions dopt;
+  dopt.grid.kind = TauGridKind::Octave;  // the quick view's grid
   const DeviationCurve batch = computeDeviation("oadev", x, InputKind::Rate, 1.0 / 400, dopt);
   ASSERT_EQ(q.axes[0].oadev.points.size(), batch.points.size());
   for (size_t i = 0; i < batch.points.size(); ++i) EXPECT_NEAR(q.axes[0].oadev.points[i].var / batch.points[i].var, 1.0, 1e-9) << i;

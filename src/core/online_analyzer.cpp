@@ -46,7 +46,7 @@ QuickViewOptions OnlineAnalyzer::quickOptions() const {
   q.window_s = options_.window_s;
   q.input = options_.pipeline.analysis.input;
   q.angle_increments = options_.pipeline.analysis.angle_increments;
-  q.deviation = options_.pipeline.analysis.deviation;
+  q.deviation.confidence = options_.pipeline.analysis.deviation.confidence;  // the grid stays the quick view's
   q.min_samples = options_.min_samples;
   return q;
 }
@@ -261,10 +261,9 @@ void OnlineAnalyzer::setOptions(const OnlineOptions& options) {
   if (next_quick_ns_ != 0) next_quick_ns_ = std::min(next_quick_ns_, now_ns() + secondsToNs(options_.update_s));
   trim();
   const QuickViewOptions after = quickOptions();
-  // The engines depend on the window, input kind and tau grid (the fit's options are the pipeline's at each fitQuick).
+  // The engines depend on the window and the input kind (the fit's options are the pipeline's at each fitQuick).
   if ((options_.update_s > 0) != was_on || after.window_s != before.window_s || after.input != before.input ||
-      after.angle_increments != before.angle_increments || tauGridName(after.deviation.grid) != tauGridName(before.deviation.grid) ||
-      after.min_samples != before.min_samples)
+      after.angle_increments != before.angle_increments || after.min_samples != before.min_samples)
     rebuildQuick(quick_.tau0());
 }
 
