@@ -110,7 +110,7 @@ while kill -0 "$play" 2>/dev/null && ! played; do
   share=$(awk -v d="$d" -v s="$span" 'BEGIN{printf "%.2f", (s > 0 ? 100 * d / s : 0)}')
   printf '%5.1f - %5.1f  | %12s | %22s | %s\n' "$prev_t" "$t" "$d" "$share" "$(rss)"
   # window full (steady state: a full analysis of the whole window every hop), and the bag still playing to the end
-  if awk -v a="$prev_t" -v b="$t" -v m="$minutes" 'BEGIN{exit !(a >= 60 && b <= m)}'; then
+  if awk -v a="$prev_t" -v b="$t" -v m="$minutes" 'BEGIN{exit !(a >= 60 && b <= m + 0.5)}'; then
     steady_cpu=$(awk -v x="$steady_cpu" -v d="$d" 'BEGIN{print x + d}')
     steady_s=$(awk -v x="$steady_s" -v s="$span" 'BEGIN{print x + s}')
   fi

@@ -39,7 +39,7 @@ std::vector<std::string> gyroTable(const std::string& out) {
 
 TEST(ReadmeDemo, TableIsWhatTheQuickStartPrints) {
   ASSERT_EQ(std::system(("mkdir -p " + kOut).c_str()), 0);
-  setenv("GYRO_ALLAN_NO_PLOT", "1", 1);  // the plot does not change the printed table
+  unsetenv("GYRO_ALLAN_NO_PLOT");  // the quick start draws the plot, and the README shows it
   // scripts/quickstart.sh: `analyze_bag bags/default.bag --output out/default` from the source tree.
   const gyro_allan_test::ToolRun r = gyro_allan_test::runTool(
       "cd '" + kSource + "' && '" + kTools + "/analyze_bag' bags/default.bag --output '" + kOut + "/out'", kOut);
@@ -63,6 +63,16 @@ TEST(ReadmeDemo, TableIsWhatTheQuickStartPrints) {
   int fences = 0;
   for (const auto& l : lines(readme.substr(0, at))) fences += l.rfind("```", 0) == 0;
   EXPECT_EQ(fences % 2, 1) << "the table must be inside a fenced code block";
+
+  // The plot the README shows (docs/demo_allan.png) is the tool's: its SVG twin docs/demo_allan.svg equals the
+  // quick start's allan.svg byte for byte (the PNG's pixels depend on the platform's OpenCV fonts; its size may not).
+  const std::string svg = gyro_allan_test::slurp(kOut + "/out/allan.svg");
+  ASSERT_FALSE(svg.empty()) << "the quick start wrote no allan.svg:\n" << r.err;
+  EXPECT_TRUE(svg == gyro_allan_test::slurp(kSource + "/docs/demo_allan.svg"))
+      << "docs/demo_allan.svg/.png are not the quick start's plot: copy out/default/allan.svg and allan.png there";
+  auto header = [](const std::string& png) { return png.size() > 24 ? png.substr(16, 8) : std::string(); };  // width, height
+  EXPECT_EQ(header(gyro_allan_test::slurp(kOut + "/out/allan.png")),
+            header(gyro_allan_test::slurp(kSource + "/docs/demo_allan.png")));
 }
 
 }  // namespace
