@@ -59,7 +59,7 @@ TEST(NodeletQuick, FirstAnswerWithinSecondsThenEveryUpdate) {
   ASSERT_TRUE(waitFor(20.0, [&] { return imu.getNumSubscribers() > 0; })) << "analyzer nodelet did not come up";
   ros::WallDuration(0.5).sleep();
 
-  const int64_t n = static_cast<int64_t>(40 * kRate);
+  const int64_t n = static_cast<int64_t>(28 * kRate);
   std::vector<double> data[3];
   for (int a = 0; a < 3; ++a) {
     gyro_allan::AxisNoise noise;
@@ -76,7 +76,7 @@ TEST(NodeletQuick, FirstAnswerWithinSecondsThenEveryUpdate) {
       imu.publish(imuMessage(t0 + ros::Duration(static_cast<double>(j) / kRate), data[0][j], data[1][j], data[2][j]));
     rate.sleep();
   }
-  ASSERT_TRUE(waitFor(10.0, [&] { return quick.size() >= 7; })) << quick.size() << " quick answers";
+  ASSERT_TRUE(waitFor(10.0, [&] { return quick.size() >= 5; })) << quick.size() << " quick answers";
   const auto q = quick.all();
   // First within 30 s of the first sample (wall time; it is due after min_fit_samples = 1000 samples, 2.5 s).
   EXPECT_LT((q.front().first - start).toSec(), 30.0);
@@ -93,7 +93,7 @@ TEST(NodeletQuick, FirstAnswerWithinSecondsThenEveryUpdate) {
     const auto& ax = last.axes[static_cast<size_t>(a)];
     EXPECT_EQ(ax.method, "quick_fit");
     ASSERT_TRUE(ax.fit_ok) << ax.message;
-    EXPECT_NEAR(ax.angle_random_walk.value / kTrueN[a], 1.0, 0.05) << "axis " << ax.axis;  // ~35 s at 400 Hz: ~1 %
+    EXPECT_NEAR(ax.angle_random_walk.value / kTrueN[a], 1.0, 0.05) << "axis " << ax.axis;  // ~25 s at 400 Hz: ~1 %
   }
   // The curves on ~allan/x are marked quick and carry the quick fit's model.
   const auto c = curve_x.all();
