@@ -42,20 +42,20 @@ std::vector<Dot> svgDots(const std::string& svg, const std::string& color) {
 }
 
 Figure twoAxes(const DeviationCurve& cx, const DeviationCurve& cy) {
-  std::vector<PlotSeries> s(2);
-  s[0].name = "x";
-  s[0].curve = &cx;
-  for (const auto& p : cx.points) s[0].model_adev.push_back(p.dev);
-  s[1].name = "y";
-  s[1].curve = &cy;
-  return seriesFigure(s, "gyro_allan live", "", 640, 480);
+  std::vector<AxisAnalysis> s(2);
+  s[0].axis = "x";
+  s[0].oadev = cx;
+  for (const auto& p : cx.points) s[0].final_model_var.push_back(p.dev * p.dev);
+  s[1].axis = "y";
+  s[1].oadev = cy;
+  return windowFigure(s, "gyro_allan live", "", 640, 480);
 }
 
 }  // namespace
 
 TEST(Plot, RejectsBadSize) {
-  EXPECT_THROW(renderSvg(seriesFigure({}, "t", "", 100, 100)), std::invalid_argument);
-  EXPECT_THROW(renderSvg(seriesFigure({}, "t", "", 5000, 600)), std::invalid_argument);
+  EXPECT_THROW(renderSvg(windowFigure({}, "t", "", 100, 100)), std::invalid_argument);
+  EXPECT_THROW(renderSvg(windowFigure({}, "t", "", 5000, 600)), std::invalid_argument);
   Figure wide;
   wide.columns = 9;  // 9 x 500 px
   wide.panels.resize(9);
@@ -155,10 +155,10 @@ TEST(Plot, PngDecodesToThePixels) {
 }
 
 TEST(Plot, EmptyInputSaysWaiting) {
-  const std::string svg = renderSvg(seriesFigure({}, "none", "", 320, 240));
+  const std::string svg = renderSvg(windowFigure({}, "none", "", 320, 240));
   EXPECT_NE(svg.find("waiting for data"), std::string::npos);
   if (!rasterAvailable()) return;
-  const RgbImage im = renderRaster(seriesFigure({}, "none", "", 320, 240));
+  const RgbImage im = renderRaster(windowFigure({}, "none", "", 320, 240));
   EXPECT_EQ(im.data.size(), 320u * 240u * 3u);
 }
 

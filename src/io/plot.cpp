@@ -682,7 +682,7 @@ Figure analysisFigure(const std::vector<AxisAnalysis>& gyro, const std::vector<A
   return f;
 }
 
-Figure seriesFigure(const std::vector<PlotSeries>& series, const std::string& title, const std::string& note, int width,
+Figure windowFigure(const std::vector<AxisAnalysis>& axes, const std::string& title, const std::string& note, int width,
                     int height) {
   const Rgb colors[] = {kRed, {44, 160, 44}, kBlue, {148, 103, 189}};
   Figure f;
@@ -690,18 +690,14 @@ Figure seriesFigure(const std::vector<PlotSeries>& series, const std::string& ti
   Panel p;
   p.title = title, p.note = note, p.ylabel = "Allan deviation [rad/s]";
   bool any_model = false;
-  for (size_t s = 0; s < series.size(); ++s) {
-    if (!series[s].curve) continue;
+  for (size_t s = 0; s < axes.size(); ++s) {
+    const AxisAnalysis& a = axes[s];
     const Rgb c = colors[s % 4];
-    Layer band = curveLayer(*series[s].curve, Mark::Band, c, "");
-    p.layers.push_back(band);
-    p.layers.push_back(curveLayer(*series[s].curve, Mark::Dots, c, series[s].name));
-    Layer m;
-    m.mark = Mark::Line, m.color = c, m.width = 1.2;
-    for (size_t i = 0; i < series[s].model_adev.size() && i < series[s].curve->points.size(); ++i)
-      m.x.push_back(series[s].curve->points[i].tau), m.y.push_back(series[s].model_adev[i]);
-    any_model = any_model || !m.x.empty();
-    p.layers.push_back(m);
+    p.layers.push_back(curveLayer(a.oadev, Mark::Band, c, ""));
+    p.layers.push_back(curveLayer(a.oadev, Mark::Dots, c, a.axis));
+    if (a.final_model_var.size() != a.oadev.points.size()) continue;
+    p.layers.push_back(varianceLine(a.oadev, a.final_model_var, Mark::Line, c, 1.2, ""));
+    any_model = true;
   }
   if (any_model) {  // one legend entry for the model lines
     Layer key;

@@ -426,16 +426,7 @@ QuickNoise toQuickNoise(const QuickAnswer& q, const std::string& frame_id, doubl
 
 sensor_msgs::Image plotMessage(const std::vector<AxisAnalysis>& axes, const std_msgs::Header& header,
                                const std::string& title, const std::string& note, const AnalyzerParams& p) {
-  std::vector<PlotSeries> series;
-  for (const AxisAnalysis& a : axes) {
-    PlotSeries s;
-    s.name = a.axis;
-    s.curve = &a.oadev;
-    if (a.final_model_var.size() == a.oadev.points.size())
-      for (double v : a.final_model_var) s.model_adev.push_back(std::sqrt(std::max(0.0, v)));
-    series.push_back(s);
-  }
-  RgbImage im = renderRaster(seriesFigure(series, title, note, p.plot_width, p.plot_height));
+  RgbImage im = renderRaster(windowFigure(axes, title, note, p.plot_width, p.plot_height));
   sensor_msgs::Image msg;
   msg.header = header;
   msg.width = static_cast<uint32_t>(im.width);

@@ -65,17 +65,9 @@ std::string encodePng(const RgbImage& im);
 /// units), the wavelet split's parts and the model check's curve when it added effects.
 Figure analysisFigure(const std::vector<AxisAnalysis>& gyro, const std::vector<AxisAnalysis>& accel);
 
-/// One curve of the nodelet's window: the measured deviation (dev, dev_lo, dev_hi) and the model ADEV at its taus
-/// (empty: no model).
-struct PlotSeries {
-  std::string name;
-  const DeviationCurve* curve = nullptr;
-  std::vector<double> model_adev;
-};
-
-/// The nodelet's ~plot: every axis in one width x height panel (x red, y green, z blue), data with its interval and
-/// the model; `note` is printed under the title.
-Figure seriesFigure(const std::vector<PlotSeries>& series, const std::string& title, const std::string& note, int width,
+/// The nodelet's ~plot: every axis's oadev in one width x height panel (x red, y green, z blue), the data with its
+/// band and the axis's model (final_model_var, when it has one per point); `note` is printed under the title.
+Figure windowFigure(const std::vector<AxisAnalysis>& axes, const std::string& title, const std::string& note, int width,
                     int height);
 
 /// Writes DIR/allan.svg and, when rasterizing is available, DIR/allan.png (atomically). Returns "" or a one-line
