@@ -52,9 +52,10 @@ TEST(NodeletBadParams, ComesUpWithDocumentedReplacements) {
   EXPECT_EQ(p.value("hop (s)"), 300.0);         // hop_s > window -> min(300, window)
   EXPECT_EQ(p.value("expected rate (Hz, 0 = from the stamps)"), 0.0);  // expected_rate_hz < 0 -> from the stamps
   EXPECT_EQ(p.value("gap factor"), 1.5);        // gap_factor 0.5 -> 1.5
+  EXPECT_EQ(p.value("quick answer: period update_s [s]"), 5.0);  // update_s -2 -> 5
   // Every problem named: invalid values, retired names, a misspelt name, a mistyped value.
   const std::string all = p.text("parameters");
-  for (const char* name : {"~window_s", "~hop_s", "~expected_rate_hz", "~gap_factor", "~tau_grid", "~input",
+  for (const char* name : {"~window_s", "~hop_s", "~update_s", "~expected_rate_hz", "~gap_factor", "~tau_grid", "~input",
                            "~confidence", "~learn_samples", "~saturation_limit", "~windw_s", "~model_check", "~gmwm",
                            "~filter_rate"})
     EXPECT_NE(all.find(name), std::string::npos) << name << " not reported in: " << all;
@@ -63,6 +64,7 @@ TEST(NodeletBadParams, ComesUpWithDocumentedReplacements) {
   EXPECT_NE(all.find("~model_check must be true or false"), std::string::npos) << all;
   EXPECT_NE(all.find("~gmwm must be true or false"), std::string::npos) << all;
   EXPECT_NE(all.find("~filter_rate must be in [0, 1e6] Hz"), std::string::npos) << all;
+  EXPECT_NE(all.find("~update_s must be in [0, 1e6] s"), std::string::npos) << all;
   EXPECT_EQ(p.value("filter rate (Hz, 0 = data rate only)"), 0.0);  // filter_rate -20 -> 0 (data rate only)
   EXPECT_NE(p.text("noise model").find("GMWM off (~gmwm)"), std::string::npos);  // gmwm "on" -> default false
   // ... and it analyses normally: the 6 s window on request (~analyze), at the rate from the stamps.
