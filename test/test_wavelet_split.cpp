@@ -8,6 +8,7 @@
 #include <stdexcept>
 #include <vector>
 
+#include "gyro_allan/model_check.hpp"
 #include "gyro_allan/simulate.hpp"
 #include "gyro_allan/wavelet_split.hpp"
 
@@ -164,27 +165,48 @@ TEST(WaveletSplit, FlickerInTheRemovedBandIsNotReadAsQuantization) {
   }
 }
 
-// B, K and R of the split are its denoised fit's: the same values and intervals, so the curve drawn for the split is
-// the model its fit reported. Dithered RLG noise with a B at 0.02 deg/h, 1 h at 100 Hz, simulateAxis seeds 1-3.
-TEST(WaveletSplit, ReportsTheDenoisedFitsTerms) {
-  for (uint64_t seed : {1u, 2u, 3u}) {
+// B, K and R of the split are the input fit's, values and intervals, so the curve drawn for the split is the model
+// that fit reported: the fit of the input's own oadev when the caller has none, the caller's when given. Where the
+// model cannot describe the input (sawtooth quantization: a gross misfit) they are the denoised fit's. Dithered RLG
+// noise with a B at 0.02 deg/h, 1 h at 100 Hz, simulateAxis seeds 1-2; a pulse counter at 10 deg/h, seed 4.
+static void expectLongerTauTerms(const WaveletSplitResult& r, const FitResult& want, uint64_t seed) {
+  for (int t = kBiasInstability; t < kNumTerms; ++t) {
+    const size_t i = static_cast<size_t>(t);
+    const Coefficient& got = r.terms[i];
+    EXPECT_EQ(got.value, want.terms[i].value) << seed << " " << noiseTermKey(t);
+    EXPECT_EQ(got.supported, want.terms[i].supported) << seed << " " << noiseTermKey(t);
+    EXPECT_EQ(got.lo68, want.terms[i].lo68) << seed << " " << noiseTermKey(t);
+    EXPECT_EQ(got.hi95, want.terms[i].hi95) << seed << " " << noiseTermKey(t);
+  }
+}
+
+TEST(WaveletSplit, ReportsTheInputFitsLongerTauTerms) {
+  for (uint64_t seed : {1u, 2u}) {
     AxisNoise ax;
     ax.quantization = kQ;
     ax.angle_random_walk = 0.002 * M_PI / 180.0 / 60.0;
     ax.bias_instability = 0.02 * kDegPerHour;
     ax.dither = true;
-    const auto r = waveletSplit(simulateAxis(ax, 100, 360000, seed, 0), 0.01);
-    ASSERT_TRUE(r.ok) << r.message;
-    ASSERT_TRUE(r.denoised_fit.ok);
-    for (int t = kBiasInstability; t < kNumTerms; ++t) {
-      const size_t i = static_cast<size_t>(t);
-      const Coefficient &got = r.terms[i], &want = r.denoised_fit.terms[i];
-      EXPECT_EQ(got.value, want.value) << seed << " " << noiseTermKey(t);
-      EXPECT_EQ(got.supported, want.supported) << seed << " " << noiseTermKey(t);
-      EXPECT_EQ(got.lo68, want.lo68) << seed << " " << noiseTermKey(t);
-      EXPECT_EQ(got.hi95, want.hi95) << seed << " " << noiseTermKey(t);
-    }
+    const auto rate = simulateAxis(ax, 100, 360000, seed, 0);
+    DeviationCurve c = computeDeviation("oadev", rate, InputKind::Rate, 0.01, DeviationOptions{});
+    const FitResult input = fitWithModelEdf(&c);
+    ASSERT_TRUE(input.ok);
+    ASSERT_FALSE(grossMisfit(input));
+    const auto own = waveletSplit(rate, 0.01);
+    ASSERT_TRUE(own.ok) << own.message;
+    EXPECT_TRUE(own.longer_tau_from_input);
+    expectLongerTauTerms(own, input, seed);
+    FitResult given = input;  // the caller's fit is used as given
+    given.terms[kBiasInstability].value *= 1.5;
+    const auto r = waveletSplit(rate, 0.01, WaveletSplitOptions{}, nullptr, &given);
+    EXPECT_TRUE(r.longer_tau_from_input);
+    expectLongerTauTerms(r, given, seed);
   }
+  const auto rate = simulateAxis(undithered(kN, 10), 400, 400 * 1200, 4, 0);
+  const auto r = waveletSplit(rate, 1.0 / 400);
+  ASSERT_TRUE(r.ok) << r.message;
+  EXPECT_FALSE(r.longer_tau_from_input);
+  expectLongerTauTerms(r, r.denoised_fit, 4);
 }
 
 TEST(WaveletSplit, RecoversDeclaredQAndNSawtooth) {

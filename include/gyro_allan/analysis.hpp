@@ -93,8 +93,9 @@ struct AxisAnalysis {
   FitResult pulse_fit;
 };
 
-/// The IEEE fit behind an analysed axis's B, K and R: the wavelet split's fit of the denoised part, pulse_times' fit,
-/// the model check's joint refit when it added effects, else the joint fit.
+/// The IEEE fit behind an analysed axis's B, K and R: for the wavelet split the joint fit, or its fit of the denoised
+/// part where the joint fit is a gross misfit (WaveletSplitResult::longer_tau_from_input); pulse_times' fit; the model
+/// check's joint refit when it added effects; else the joint fit.
 const FitResult& answerFit(const AxisAnalysis& a);
 /// Correlation magnitude from which two of B, K and R count as trading (FitResult::correlation; tradeNote).
 constexpr double kTradeCorrelation = 0.9;

@@ -142,6 +142,9 @@ struct FitError {
 };
 /// A fit's own error figures (rms_log10, chi2_dof, n_rms, worst_adev_ratio, chi2_p of a GLS fit).
 FitError fitErrorOf(const FitResult& fit);
+/// A GLS fit the data reject grossly: generalized chi-squared p < 1e-6 and chi2/dof > 10 (clean records: p ~ U(0,1),
+/// chi2/dof ~ 1 +- 0.4; a sawtooth quantization the model cannot describe reaches chi2/dof 1e3).
+bool grossMisfit(const FitResult& fit);
 FitError fitError(const DeviationCurve& curve, const std::vector<double>& model_var, const std::vector<bool>& used,
                   int n_params, double rms_min_edf = 3.0);
 

@@ -18,10 +18,10 @@ namespace gyro_allan {
 ///           dithered error and a sawtooth both have variance Q^2), minus the ARW it carries (exact for the split,
 ///           from N) and divided by the fraction of white quantization noise the split keeps.
 ///  "allan": fitNoiseModel of the removed part's oadev with 3Q^2/tau^2 + N_r^2/tau (N_r absorbs removed ARW).
-/// How N (and B, K) are estimated.
+/// How N is estimated (B, K and R: waveletSplit).
 ///  "wavelet_variance": weighted least squares on the DWT wavelet variances of the coarse levels (ARW-dominated,
-///           nearly free of the blue quantization noise), with the remaining quantization share subtracted from Q;
-///           B and K from the same levels when enabled; R from the denoised Allan fit.
+///           nearly free of the blue quantization noise), with the remaining quantization share subtracted from Q
+///           and the input fit's B and K held fixed.
 ///  "allan": fitNoiseModel of the denoised part's oadev for tau >= 4 * 2^level * tau0 (where the denoised part
 ///           holds the full ARW), with a 3Q_d^2/tau^2 term absorbing the leaked quantization noise.
 struct WaveletSplitOptions {
@@ -37,7 +37,7 @@ struct WaveletSplitOptions {
   /// Levels of the free-share fit (whiteness check): white-model quantization at most this times the ARW there.
   double free_fit_max_ratio = 3.0;
   DeviationOptions deviation;                      ///< for the two oadev curves
-  /// Terms for the longer-tau fit of the denoised part (Q is handled separately; N, B, K, R by default).
+  /// Terms of the denoised part's fit and of the input fit (Q is handled separately; N, B, K, R by default).
   std::array<bool, kNumTerms> enabled{{true, true, true, true, true}};
   bool keep_signals = false;                       ///< keep denoised/removed samples in the result
   /// Quantization that is not white (a sawtooth): Q^2 and N^2 are corrected for the estimator's bias, and Q^2 takes
@@ -81,8 +81,10 @@ struct WaveletSplitResult {
 
   DeviationCurve denoised_curve;       ///< oadev of the denoised part
   DeviationCurve removed_curve;        ///< oadev of the removed part
-  /// Q, N, B, K, R with 1-sigma (same layout and units as FitResult::terms); B, K, R are the denoised fit's. The
-  /// model curve behind the fit errors is drawn from these values.
+  /// Q, N, B, K, R with 1-sigma (same layout and units as FitResult::terms): Q and N the split's, B, K and R the
+  /// input fit's or the denoised fit's (longer_tau_from_input; waveletSplit). The model curve behind the fit errors
+  /// is drawn from these values.
+  bool longer_tau_from_input = false;
   std::array<Coefficient, kNumTerms> terms;
   FitResult denoised_fit;              ///< Allan fit of the denoised part (tau >= 4 * 2^level * tau0)
   FitResult removed_fit;               ///< Allan fit of the removed part: 3Q^2/tau^2 + N_r^2/tau
@@ -118,8 +120,12 @@ struct WaveletSplitResult {
 /// non-finite samples, too short a record for the wavelet, unknown estimator names).
 /// `raw_oadev`, when given, is computeDeviation("oadev", rate, Rate, tau0, options.deviation) computed by the caller
 /// (the pipeline already has it); it is used as is instead of being computed again.
+/// B, K and R live at long tau, where the split changes nothing; they are read from the fit of the input's own Allan
+/// curve (fitWithModelEdf with options.enabled: the `input_fit` the caller already has or, without it, the split's
+/// own) unless that fit is a gross misfit (grossMisfit: e.g. a sawtooth quantization the model cannot describe),
+/// and then from the denoised part's fit.
 WaveletSplitResult waveletSplit(const std::vector<double>& rate, double tau0, const WaveletSplitOptions& options = {},
-                                const DeviationCurve* raw_oadev = nullptr);
+                                const DeviationCurve* raw_oadev = nullptr, const FitResult* input_fit = nullptr);
 
 /// Expected mean square of the level-j DWT detail coefficient (orthonormal, interior) per unit coefficient squared
 /// of each IEEE term (Q^2 of white angle error, N^2, B^2 flicker, K^2): exact for Q and N (filter norms), by

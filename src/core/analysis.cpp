@@ -11,10 +11,6 @@
 namespace gyro_allan {
 namespace {
 
-// A fit is grossly bad when its generalized chi-squared is far out of reach of chance (clean records: p ~ U(0,1),
-// chi2/dof ~ 1 +- 0.4) and large in size: misfits from sawtooth quantization reach chi2/dof 1e3.
-constexpr double kGrossMisfitP = 1e-6;
-constexpr double kGrossMisfitChi2Dof = 10.0;
 // pulse_times (slow undithered counters): the linear interpolation between lattice crossings smooths the angle's
 // random walk, so its N comes out low by ~2 % in 1-2 h records and ~9 % in 10 min ones (median; coverage_study seeds
 // 6001-6020, classes rlg_saw1/rlg_saw2). N's sigma gets this relative systematic allowance in quadrature, and the
@@ -229,7 +225,8 @@ void AxisStages::split() {
   if (!isPulseCount(a_.quantized)) so.sawtooth_replicas = 0;
   try {
     // One gap-free segment: the split's curve of the raw samples is the one just computed (saves an oadev pass).
-    a_.split = waveletSplit(segments_[longest_], tau0_, so, a_.segments == 1 ? &raw_oadev_ : nullptr);
+    a_.split = waveletSplit(segments_[longest_], tau0_, so, a_.segments == 1 ? &raw_oadev_ : nullptr,
+                            a_.segments == 1 && a_.fit.ok ? &a_.fit : nullptr);
     a_.has_split = true;
     if (!a_.split.ok) split_note_ = "wavelet split: " + a_.split.message;
   } catch (const std::invalid_argument& e) {
@@ -351,20 +348,19 @@ AxisAnalysis AxisStages::finish() {
     // while the split removes it and fits the rest at chi2/dof ~1.
     const FitResult& joint = a.fit;
     const FitResult* den = split_ok && a.split.denoised_fit.ok ? &a.split.denoised_fit : nullptr;
-    auto gross = [](const FitResult& f) { return f.gls && f.chi2_p < kGrossMisfitP && f.chi2_dof > kGrossMisfitChi2Dof; };
     char buf[240];
     if (method == "joint_fit" && split_ok && a.quantized.sawtooth) {
       method = "wavelet_split";
       a.method_reason = "undithered quantization: the pulse count repeats at " + std::to_string(a.quantized.sawtooth_hz) +
                         " Hz (a sawtooth the Allan model's white quantization term cannot describe)";
-    } else if (method == "joint_fit" && den && gross(joint) && !gross(*den) && den->chi2_dof * 10 < joint.chi2_dof) {
+    } else if (method == "joint_fit" && den && grossMisfit(joint) && !grossMisfit(*den) && den->chi2_dof * 10 < joint.chi2_dof) {
       method = "wavelet_split";
       std::snprintf(buf, sizeof buf,
                     "the Allan model cannot describe the curve (joint fit chi2/dof %.3g, p %.2g) while the split's "
                     "fit of the denoised signal has chi2/dof %.3g",
                     joint.chi2_dof, joint.chi2_p, den->chi2_dof);
       a.method_reason = buf;
-    } else if (method == "wavelet_split" && den && gross(*den) && !gross(joint) && joint.chi2_dof * 10 < den->chi2_dof) {
+    } else if (method == "wavelet_split" && den && grossMisfit(*den) && !grossMisfit(joint) && joint.chi2_dof * 10 < den->chi2_dof) {
       method = "joint_fit";
       std::snprintf(buf, sizeof buf,
                     "quantization dominates the shortest tau, but the split's fit is grossly worse (chi2/dof %.3g "
@@ -482,7 +478,7 @@ AxisAnalysis AxisStages::finish() {
 }
 
 const FitResult& answerFit(const AxisAnalysis& a) {
-  if (a.method == "wavelet_split") return a.split.denoised_fit;
+  if (a.method == "wavelet_split") return a.split.longer_tau_from_input ? a.fit : a.split.denoised_fit;
   if (a.method == "pulse_times") return a.pulse_fit;
   if (a.has_check && !a.check.effects.empty()) return a.check.fit_after;
   return a.fit;

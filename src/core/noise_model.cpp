@@ -179,6 +179,8 @@ double modelVariance(const FitResult& fit, double tau, const std::vector<ExtraTe
   return s;
 }
 
+bool grossMisfit(const FitResult& fit) { return fit.gls && fit.chi2_p < 1e-6 && fit.chi2_dof > 10.0; }
+
 FitError fitErrorOf(const FitResult& fit) {
   FitError e;
   e.rms_log10 = fit.rms_log10;

@@ -750,7 +750,8 @@ Coefficient fromSquare(double c, double c_sigma, double sigma_dof) {
                                boost::math::quantile(t, 0.975));
 }
 
-void reportCoefficients(const WaveletSplitOptions& options, const QnEstimate& e, WaveletSplitResult* r) {
+void reportCoefficients(const WaveletSplitOptions& options, const QnEstimate& e, const FitResult& longer,
+                        WaveletSplitResult* r) {
   if (options.q_estimator == "angle") {
     r->terms[kQuantization] = fromSquare(e.q2, e.q2_sigma, e.q_sigma_dof);
   } else {
@@ -763,11 +764,10 @@ void reportCoefficients(const WaveletSplitOptions& options, const QnEstimate& e,
   }
   if (!options.enabled[kAngleRandomWalk]) r->terms[kAngleRandomWalk] = Coefficient{};
   if (!options.enabled[kQuantization]) r->terms[kQuantization] = Coefficient{};
-  for (int t = kBiasInstability; t < kNumTerms; ++t) {  // B, K and R: the denoised fit's
+  for (int t = kBiasInstability; t < kNumTerms; ++t) {  // B, K and R: the longer-tau fit's
     const size_t i = static_cast<size_t>(t);
-    const FitResult& f = r->denoised_fit;
-    if (!options.enabled[i] || !f.ok) continue;
-    r->terms[i] = f.terms[i];
+    if (!options.enabled[i] || !longer.ok) continue;
+    r->terms[i] = longer.terms[i];
   }
 }
 
@@ -808,7 +808,7 @@ void fitErrors(const DeviationCurve& raw_curve, WaveletSplitResult* r) {
 }  // namespace
 
 WaveletSplitResult waveletSplit(const std::vector<double>& rate, double tau0, const WaveletSplitOptions& options,
-                                const DeviationCurve* raw_oadev) {
+                                const DeviationCurve* raw_oadev, const FitResult* input_fit) {
   validateSplitInputs(rate, tau0, options);
   const Wavelet w(options.wavelet);
   const int F = w.dec_len();
@@ -832,6 +832,17 @@ WaveletSplitResult waveletSplit(const std::vector<double>& rate, double tau0, co
       raw_oadev ? *raw_oadev : computeDeviation("oadev", rate, InputKind::Rate, tau0, options.deviation);
 
   fitParts(tau0, options, &r);
+  // 3b. The longer-tau terms: the input fit's where the IEEE model describes the input's curve, else the denoised fit's.
+  FitResult own_fit;
+  if (!input_fit) {
+    DeviationCurve weighted = raw_curve;
+    FitOptions fo;
+    fo.enabled = options.enabled;
+    own_fit = fitWithModelEdf(&weighted, fo, options.deviation.confidence);
+    input_fit = &own_fit;
+  }
+  r.longer_tau_from_input = input_fit->ok && !grossMisfit(*input_fit);
+  const FitResult& longer = r.longer_tau_from_input ? *input_fit : r.denoised_fit;
 
   // 4. Wavelet variances of the input and their responses.
   const int J = static_cast<int>(lv.var.size());
@@ -841,12 +852,12 @@ WaveletSplitResult waveletSplit(const std::vector<double>& rate, double tau0, co
 
   // 5. Q (angle) and N (wavelet variance), iterated: each uses the other's current value.
   const AngleVariance av = removedAngleVariance(split.removed, tau0, F, &r);
-  // Longer-tau terms known from the denoised Allan fit (fixed in the level model).
+  // Longer-tau terms (fixed in the level model).
   LevelModel lm{resp, r.levels, J};
-  if (r.denoised_fit.ok) {
-    if (options.enabled[kBiasInstability]) lm.b2 = std::pow(r.denoised_fit.terms[kBiasInstability].value, 2);
-    if (options.enabled[kRateRandomWalk]) lm.k2 = std::pow(r.denoised_fit.terms[kRateRandomWalk].value, 2);
-    const Coefficient &b = r.denoised_fit.terms[kBiasInstability], &k = r.denoised_fit.terms[kRateRandomWalk];
+  if (longer.ok) {
+    if (options.enabled[kBiasInstability]) lm.b2 = std::pow(longer.terms[kBiasInstability].value, 2);
+    if (options.enabled[kRateRandomWalk]) lm.k2 = std::pow(longer.terms[kRateRandomWalk].value, 2);
+    const Coefficient &b = longer.terms[kBiasInstability], &k = longer.terms[kRateRandomWalk];
     if (lm.b2 > 0) lm.b2_sd = 2.0 * b.value * b.sigma;
     if (lm.k2 > 0) lm.k2_sd = 2.0 * k.value * k.sigma;
   }
@@ -863,7 +874,7 @@ WaveletSplitResult waveletSplit(const std::vector<double>& rate, double tau0, co
   sawtoothBootstrap(tau0, static_cast<int64_t>(rate.size()), options, w, fac, mean_rate, &qn, &r);
   recordQn(lm, qn, fac, av, tau0, &r);
 
-  reportCoefficients(options, qn, &r);
+  reportCoefficients(options, qn, longer, &r);
   fitErrors(raw_curve, &r);
   r.ok = r.q_angle > 0 && r.n_wavelet > 0;
   if (!r.ok) r.message = "wavelet split found no quantization or no ARW";

@@ -97,6 +97,7 @@ YAML::Node splitNode(const WaveletSplitResult& w) {
   est["n_allan"] = num(w.n_allan);
   est["n_removed"] = num(w.n_removed);
   n["estimates"] = est;
+  n["longer_tau_terms"] = w.longer_tau_from_input ? "input_fit" : "denoised_fit";  // where B, K and R come from
   n["denoised_fit"] = errorNode(w.denoised_fit_error.rms_log10, w.denoised_fit_error.chi2_dof);
   n["removed_fit"] = errorNode(w.removed_fit_error.rms_log10, w.removed_fit_error.chi2_dof);
   return n;
