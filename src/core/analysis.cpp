@@ -11,6 +11,8 @@
 namespace gyro_allan {
 namespace {
 
+// The wavelet split answers when quantization is at least this share of the Allan variance at the shortest tau.
+constexpr double kSplitQuantizationShare = 0.5;
 // pulse_times (slow undithered counters): the linear interpolation between lattice crossings smooths the angle's
 // random walk, so its N comes out low by ~2 % in 1-2 h records and ~9 % in 10 min ones (median; coverage_study seeds
 // 6001-6020, classes rlg_saw1/rlg_saw2). N's sigma gets this relative systematic allowance in quadrature, and the
@@ -212,9 +214,29 @@ void AxisStages::removeSegmentSpikes() {
   a.notes.push_back(buf);  // the with-spikes comparison follows once `fit` exists (prepare)
 }
 
+namespace {
+
+// Share of the Allan variance at the shortest tau that the joint fit gives quantization (0 when Q is not supported).
+double quantizationShare(const AxisAnalysis& a) {
+  const auto& q = a.fit.terms[kQuantization];
+  if (a.oadev.points.empty() || !q.supported) return 0.0;
+  return termVariance(a.fit, kQuantization, a.oadev.points.front().tau) / a.oadev.points.front().var;
+}
+
+// The split can be the answer (finish): requested, quantization dominating the shortest tau, a sawtooth pulse count,
+// or a joint fit the data reject grossly. Elsewhere it would only cost time and memory (a quarter of a 1 h MEMS
+// record's analysis) for an answer nobody reads.
+bool splitCanAnswer(const AxisAnalysis& a, const AnalysisOptions& options) {
+  if (options.method == "wavelet_split") return true;
+  if (options.method != "auto") return false;
+  return quantizationShare(a) >= kSplitQuantizationShare || a.quantized.sawtooth || grossMisfit(a.fit);
+}
+
+}  // namespace
+
 void AxisStages::split() {
   if (!prepared_) throw std::logic_error("AxisStages::split before prepare");
-  if (!options_.wavelet_split) return;
+  if (!options_.wavelet_split || !splitCanAnswer(a_, options_)) return;
   WaveletSplitOptions so = options_.split;
   so.deviation = options_.deviation;
   // The sawtooth bootstrap simulates an undithered pulse counter: only where the output was seen to be a pulse count
@@ -330,17 +352,19 @@ AxisAnalysis AxisStages::finish() {
   if (method == "auto") {
     // Quantization-limited gyros (RLG/FOG pulse outputs): where 3Q^2/tau^2 is most of the AVAR at the shortest tau the
     // Allan fit trades Q against N, and the wavelet split separates them by scale (docs/wavelet_split.md).
-    const auto& q = a.fit.terms[kQuantization];
-    const double q_share = a.oadev.points.empty() || !q.supported
-                               ? 0.0
-                               : termVariance(a.fit, kQuantization, a.oadev.points.front().tau) / a.oadev.points.front().var;
-    if (split_ok && q_share >= 0.5) {
+    const double q_share = quantizationShare(a);
+    if (split_ok && q_share >= kSplitQuantizationShare) {
       method = "wavelet_split";
       a.method_reason = "quantization is " + std::to_string(static_cast<int>(100 * q_share)) +
                         " % of the Allan variance at the shortest tau";
     } else {
       method = "joint_fit";
-      a.method_reason = split_ok ? "quantization does not dominate the shortest tau" : "wavelet split not available";
+      if (split_ok || (options.wavelet_split && !a.has_split))
+        a.method_reason = "quantization is " + std::to_string(static_cast<int>(100 * q_share)) +
+                          " % of the Allan variance at the shortest tau (the wavelet split answers from " +
+                          std::to_string(static_cast<int>(100 * kSplitQuantizationShare)) + " %)";
+      else
+        a.method_reason = "wavelet split not available";
     }
     // Evidence: each method's generalized chi-squared on the curve it fitted (joint: the Allan variance; split: the
     // denoised signal's). Neither is returned when its fit is grossly worse than the other's — e.g. an undithered
