@@ -6,7 +6,9 @@
 #include <sys/stat.h>
 
 #include <cerrno>
+#include <chrono>
 #include <cstdlib>
+#include <thread>
 
 #include <pluginlib/class_list_macros.hpp>
 
@@ -15,6 +17,10 @@
 #include "gyro_allan/io/report.hpp"
 
 namespace gyro_allan {
+namespace {
+// The sample thread's pause between batches: ~20 messages at 1 kHz, far inside the subscriber queue (~queue_size).
+constexpr std::chrono::milliseconds kSampleBatch{20};
+}  // namespace
 
 AnalyzerNodelet::~AnalyzerNodelet() {
   sample_stop_ = true;
@@ -70,9 +76,9 @@ void AnalyzerNodelet::onInit() {
   dyn_->setCallback([this](AnalyzerConfig& c, uint32_t level) { reconfigure(c, level); });
 
   // No TCP_NODELAY: the publisher's TCP may then send several samples per packet (the answers come every few seconds,
-  // a few ms of latency do not matter), and the samples have their own callback queue and thread: one wake-up takes
-  // every message queued by then, where the nodelet manager's queue hands each message to a worker thread. Receiving
-  // 1 kHz from another process is most of this process's CPU (docs/performance.md, the nodelet).
+  // a few ms of latency do not matter), and the samples have their own callback queue and thread, which takes every
+  // message queued and then sleeps kSampleBatch: one wake-up per batch instead of one per message. Receiving 1 kHz
+  // from another process is most of this process's CPU (docs/performance.md, the nodelet).
   const auto hints = ros::TransportHints();
   const uint32_t q = static_cast<uint32_t>(p_.queue_size);
   ros::NodeHandle sample_nh(nh);
@@ -80,7 +86,10 @@ void AnalyzerNodelet::onInit() {
   if (p_.input != "angle") imu_sub_ = sample_nh.subscribe("imu", q, &AnalyzerNodelet::imuCallback, this, hints);
   if (p_.input != "imu") angle_sub_ = sample_nh.subscribe("angle", q, &AnalyzerNodelet::angleCallback, this, hints);
   sample_thread_ = std::thread([this] {
-    while (!sample_stop_) sample_queue_.callAvailable(ros::WallDuration(0.1));
+    while (!sample_stop_) {
+      sample_queue_.callAvailable(ros::WallDuration(0.1));
+      if (!sample_stop_) std::this_thread::sleep_for(kSampleBatch);
+    }
   });
   // The same queue as the rate: a fixed 1000 can drop readings when a bag's worth (nodelet_closed_loop: 1200) arrives
   // at once while the callback thread lags. Suspected, not reproduced, cause of that test's rare failure under load.
