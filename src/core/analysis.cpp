@@ -353,18 +353,17 @@ AxisAnalysis AxisStages::finish() {
     // Quantization-limited gyros (RLG/FOG pulse outputs): where 3Q^2/tau^2 is most of the AVAR at the shortest tau the
     // Allan fit trades Q against N, and the wavelet split separates them by scale (docs/wavelet_split.md).
     const double q_share = quantizationShare(a);
+    const std::string share =
+        "quantization is " + std::to_string(static_cast<int>(100 * q_share)) + " % of the Allan variance at the shortest tau";
     if (split_ok && q_share >= kSplitQuantizationShare) {
       method = "wavelet_split";
-      a.method_reason = "quantization is " + std::to_string(static_cast<int>(100 * q_share)) +
-                        " % of the Allan variance at the shortest tau";
+      a.method_reason = share;
     } else {
       method = "joint_fit";
-      if (split_ok || (options.wavelet_split && !a.has_split))
-        a.method_reason = "quantization is " + std::to_string(static_cast<int>(100 * q_share)) +
-                          " % of the Allan variance at the shortest tau (the wavelet split answers from " +
-                          std::to_string(static_cast<int>(100 * kSplitQuantizationShare)) + " %)";
-      else
-        a.method_reason = "wavelet split not available";
+      a.method_reason = q_share < kSplitQuantizationShare
+                            ? share + " (the wavelet split answers from " +
+                                  std::to_string(static_cast<int>(100 * kSplitQuantizationShare)) + " %)"
+                            : "wavelet split not available";
     }
     // Evidence: each method's generalized chi-squared on the curve it fitted (joint: the Allan variance; split: the
     // denoised signal's). Neither is returned when its fit is grossly worse than the other's — e.g. an undithered
