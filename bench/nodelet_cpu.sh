@@ -5,8 +5,11 @@
 # (steady state: a full analysis of the whole window every hop). Two set-ups:
 #   default: the analyzer standalone (its own process), the samples from `rosbag play` (TCP, serialized);
 #   --in-process: the analyzer and gyro_allan/BagPlayerNodelet in one nodelet manager, as beside a driver's nodelet
-#   (samples by pointer); the player thread's own CPU (bag reading) is left out.
-# Usage: bench/nodelet_cpu.sh [--rate 1000] [--minutes 70] [--speed 10] [--in-process] [--dir DIR] [-- _param:=value ...]
+#   (samples by pointer); the player thread's own CPU (bag reading) is left out;
+#   --bare: instead of the analyzer, bare_imu_subscriber (bench/bare_imu_subscriber.cpp), which subscribes as the
+#   analyzer does and only counts: the floor any process pays to receive the topic (_batch_ms:=0 after --: ros::spin).
+# Usage: bench/nodelet_cpu.sh [--rate 1000] [--minutes 70] [--speed 10] [--in-process | --bare] [--dir DIR]
+#        [-- _param:=value ...]
 #   (after --: private parameters of the analyzer instead of the defaults, e.g. _update_s:=0)
 # GYRO_ALLAN_BENCH_LINE_S: seconds of input per printed line (default 300).
 # Needs a build (scripts/build.sh). The bag is generated once into DIR (default /tmp/gyro_allan_bench) and reused.
@@ -19,6 +22,7 @@ speed=10
 dir=${GYRO_ALLAN_BENCH_DIR:-/tmp/gyro_allan_bench}
 params=()
 in_process=0
+bare=0
 while [ $# -gt 0 ]; do
   case "$1" in
     --rate) rate=$2; shift 2 ;;
@@ -26,6 +30,7 @@ while [ $# -gt 0 ]; do
     --speed) speed=$2; shift 2 ;;
     --dir) dir=$2; shift 2 ;;
     --in-process) in_process=1; shift ;;
+    --bare) bare=1; shift ;;
     --) shift; params=("$@"); break ;;
     *) echo "nodelet_cpu.sh: unknown option $1" >&2; exit 1 ;;
   esac
@@ -65,6 +70,12 @@ if [ "$in_process" = 1 ]; then
   pids+=($!)
   sleep 3
   npid=$(pgrep -f "__name:=manager" | head -1)
+elif [ "$bare" = 1 ]; then
+  [ -x "$bin/bare_imu_subscriber" ] || { echo "nodelet_cpu.sh: $bin/bare_imu_subscriber missing: rebuild" >&2; exit 1; }
+  "$bin/bare_imu_subscriber" __name:=analyzer "${params[@]}" >"$ROS_HOME/nodelet.log" 2>&1 &
+  pids+=($!)
+  sleep 3
+  npid=$(pgrep -f "__name:=analyzer" | head -1)
 else
   rosrun nodelet nodelet standalone gyro_allan/AnalyzerNodelet __name:=analyzer --no-bond "${params[@]}" \
     >"$ROS_HOME/nodelet.log" 2>&1 &
