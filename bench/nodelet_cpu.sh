@@ -2,7 +2,7 @@
 # Nodelet CPU benchmark: AnalyzerNodelet (default parameters: window 1 h, hop 300 s, quick answers every 5 s) fed a
 # simulated 3-axis IMU at --speed x real time; prints the analyzer's CPU time (user + sys, /proc) per stretch of input
 # and as a fraction of one core at real time (CPU seconds / input seconds), and its mean once the window is full
-# (steady state: a full analysis of the whole window every hop). Two set-ups:
+# (steady state: a full analysis of the whole window every hop). Set-ups:
 #   default: the analyzer standalone (its own process), the samples from `rosbag play` (TCP, serialized);
 #   --in-process: the analyzer and gyro_allan/BagPlayerNodelet in one nodelet manager, as beside a driver's nodelet
 #   (samples by pointer); the player thread's own CPU (bag reading) is left out;
@@ -10,7 +10,7 @@
 #   analyzer does and only counts: the floor any process pays to receive the topic (_batch_ms:=0 after --: ros::spin).
 # Usage: bench/nodelet_cpu.sh [--rate 1000] [--minutes 70] [--speed 10] [--in-process | --bare] [--dir DIR]
 #        [-- _param:=value ...]
-#   (after --: private parameters of the analyzer instead of the defaults, e.g. _update_s:=0)
+#   (after --: private parameters of the analyzer, or of bare_imu_subscriber, e.g. _update_s:=0)
 # GYRO_ALLAN_BENCH_LINE_S: seconds of input per printed line (default 300).
 # Needs a build (scripts/build.sh). The bag is generated once into DIR (default /tmp/gyro_allan_bench) and reused.
 set -euo pipefail
@@ -95,8 +95,14 @@ cpu() {
 }
 rss() { awk '/VmRSS/ {printf "%.0f", $2 / 1024}' "/proc/$npid/status"; }
 echo "machine: $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //'), load $(cut -d' ' -f1-3 /proc/loadavg)"
-setup=$([ "$in_process" = 1 ] && echo "in one nodelet manager with BagPlayerNodelet" || echo "standalone, from rosbag play")
-echo "input: $bag ($rate Hz x 3 axes, $minutes min) at ${speed}x; analyzer $setup; default parameters ${params[*]:-}"
+if [ "$in_process" = 1 ]; then
+  setup="analyzer in one nodelet manager with BagPlayerNodelet"
+elif [ "$bare" = 1 ]; then
+  setup="bare_imu_subscriber (receiving only), from rosbag play"
+else
+  setup="analyzer standalone, from rosbag play"
+fi
+echo "input: $bag ($rate Hz x 3 axes, $minutes min) at ${speed}x; $setup; default parameters ${params[*]:-}"
 c0=$(cpu)
 if [ "$in_process" = 1 ]; then
   rosrun nodelet nodelet load gyro_allan/BagPlayerNodelet manager __name:=player --no-bond _bag:="$bag" \
