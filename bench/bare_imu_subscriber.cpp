@@ -19,6 +19,9 @@ int main(int argc, char** argv) {
   const ros::TransportHints hints = pnh.param("udp", false) ? ros::TransportHints().udp().tcp() : ros::TransportHints();
   std::atomic<uint64_t> received{0};
   auto count = [&received](const sensor_msgs::Imu::ConstPtr&) { ++received; };
+  auto report = [&received] {  // the count, for lost messages (stderr: unbuffered, the benchmark kills the node)
+    std::fprintf(stderr, "bare_imu_subscriber: %llu messages\n", static_cast<unsigned long long>(received.load()));
+  };
   if (batch_ms <= 0) {
     ros::Subscriber sub = nh.subscribe<sensor_msgs::Imu>("imu", queue_size, count, ros::VoidConstPtr(), hints);
     ros::spin();
@@ -34,12 +37,12 @@ int main(int argc, char** argv) {
     while (ros::ok()) {
       queue.callAvailable(ros::WallDuration(0.1));
       std::this_thread::sleep_for(std::chrono::milliseconds(batch_ms));
-      if (std::chrono::steady_clock::now() - last > std::chrono::seconds(60)) {  // the count, for lost messages
+      if (std::chrono::steady_clock::now() - last > std::chrono::seconds(60)) {
         last = std::chrono::steady_clock::now();
-        std::fprintf(stderr, "bare_imu_subscriber: %llu messages\n", static_cast<unsigned long long>(received.load()));
+        report();
       }
     }
   }
-  ROS_INFO("bare_imu_subscriber: %llu messages", static_cast<unsigned long long>(received.load()));
+  report();
   return 0;
 }

@@ -112,9 +112,9 @@ double param(const DetectedEffect& e, const char* name, double* sigma = nullptr)
 // part, a line at 1x the white-noise level is below the noise the search sees.
 double wholeNoiseFactor(const Class& k, const Line& l) {
   const double tau = 0.37 / l.f;
-  const double avar = k.a.angle_random_walk * k.a.angle_random_walk / tau +
-                      2 * std::log(2.0) / M_PI * k.a.bias_instability * k.a.bias_instability +
-                      k.a.rate_random_walk * k.a.rate_random_walk * tau / 3;
+  const double avar = std::pow(k.a.angle_random_walk, 2) * noiseTermBasis(kAngleRandomWalk, tau) +
+                      std::pow(k.a.bias_instability, 2) * noiseTermBasis(kBiasInstability, tau) +
+                      std::pow(k.a.rate_random_walk, 2) * noiseTermBasis(kRateRandomWalk, tau);
   return l.amplitude / std::sqrt(avar);
 }
 
