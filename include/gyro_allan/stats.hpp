@@ -1,6 +1,8 @@
-// Order statistics shared by the core and the tools: the median in O(n), in the two even-count conventions in use.
+// Order statistics and a one-dimensional maximizer shared by the core and the tools: the median in O(n), in the two
+// even-count conventions in use, and the golden-section search.
 #pragma once
 
+#include <cmath>
 #include <vector>
 
 namespace gyro_allan {
@@ -21,5 +23,30 @@ double upperMedianInPlace(std::vector<double>& v);
 
 /// upperMedian of a copy of v (upperMedianInPlace).
 inline double upperMedian(std::vector<double> v) { return upperMedianInPlace(v); }
+
+/// Golden-section search for the maximum of a unimodal g over [lo, hi]: `iterations` steps, each shrinking the
+/// bracket by 0.618; returns the better of the last two interior points.
+template <class G>
+double goldenSectionMax(G g, double lo, double hi, int iterations) {
+  const double gr = 0.5 * (std::sqrt(5.0) - 1.0);
+  double x1 = hi - gr * (hi - lo), x2 = lo + gr * (hi - lo);
+  double g1 = g(x1), g2 = g(x2);
+  for (int it = 0; it < iterations; ++it) {
+    if (g1 > g2) {
+      hi = x2;
+      x2 = x1;
+      g2 = g1;
+      x1 = hi - gr * (hi - lo);
+      g1 = g(x1);
+    } else {
+      lo = x1;
+      x1 = x2;
+      g1 = g2;
+      x2 = lo + gr * (hi - lo);
+      g2 = g(x2);
+    }
+  }
+  return g1 > g2 ? x1 : x2;
+}
 
 }  // namespace gyro_allan

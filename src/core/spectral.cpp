@@ -200,30 +200,6 @@ LineFit fitSinusoidAt(const std::vector<double>& y, double r, double f) {
   return {s.cs[0].first, s.cs[0].second, s.explained};
 }
 
-// Golden-section maximum of g over [lo, hi].
-template <class G>
-double goldenMax(G g, double lo, double hi, int iterations) {
-  const double gr = 0.5 * (std::sqrt(5.0) - 1.0);
-  double x1 = hi - gr * (hi - lo), x2 = lo + gr * (hi - lo);
-  double g1 = g(x1), g2 = g(x2);
-  for (int it = 0; it < iterations; ++it) {
-    if (g1 > g2) {
-      hi = x2;
-      x2 = x1;
-      g2 = g1;
-      x1 = hi - gr * (hi - lo);
-      g1 = g(x1);
-    } else {
-      lo = x1;
-      x1 = x2;
-      g1 = g2;
-      x2 = lo + gr * (hi - lo);
-      g2 = g(x2);
-    }
-  }
-  return g1 > g2 ? x1 : x2;
-}
-
 // Gain of a b-sample block mean at frequency f (rate fs), referred to the block's centre: real, 1 at f = 0.
 double blockMeanGain(double f, double fs, int64_t b) {
   const double s = std::sin(M_PI * f / fs);
@@ -327,7 +303,7 @@ SpectralLine refineLine(const std::vector<double>& x, double fs, double f0, doub
       best = df;
     }
   }
-  const double dfz = goldenMax(zoomPower, best - grid, best + grid, 30);
+  const double dfz = goldenSectionMax(zoomPower, best - grid, best + grid, 30);
   const double f = std::clamp(f0 + dfz, 1e-12 * fs, 0.5 * fs * (1 - 1e-12));
   return lineFromFit(fitSinusoidAt(x, fs, f), 1.0, f, T, noise_psd);
 }
@@ -465,7 +441,7 @@ std::vector<SpectralLine> findSlowLines(const std::vector<double>& x, double fs,
     if (!(fa < false_alarm)) break;
     // Refine on the block means: frequency within +-1 padded bin by golden section on the explained power, then the
     // amplitude corrected for the block mean's gain; the fitted sinusoid leaves the residual before the next round.
-    const double fr = goldenMax([&](double f) { return fitSinusoidAt(y, fy, f).explained; },
+    const double fr = goldenSectionMax([&](double f) { return fitSinusoidAt(y, fy, f).explained; },
                                 (best_m - 1) * dfp, (best_m + 1) * dfp, 30);
     const LineFit lf = fitSinusoidAt(y, fy, fr);
     const double g = blockMeanGain(fr, fs, b);
