@@ -6,12 +6,16 @@
 //   coverage_study [--seeds A-B] [--classes a,b,...] [--duration S | --durations S1,S2,...] [--rate HZ]
 //                  [--max-samples N] [--threads N] [--csv FILE] [--method auto|joint_fit|wavelet_split]
 //                  [--tau-grid G] [--no-model-check] [--no-wavelet-split] [--sawtooth-replicas N] [--list]
-//                  [--define NAME:key=value,...]...
+//                  [--bound] [--define NAME:key=value,...]...
 //
 // --define adds a class of your own (a held-out class: nothing was tuned on it), in the units of the table below:
 //   --define my_ramp:rate=200,hours=1,n=0.1,b=0.8,k=0.5,r=40      keys rate (Hz), hours, q (arcsec), n, b, k,
 //   r, in (deg/h input rate), dither (1 or 0; default 1). Unset terms are 0. Repeatable. With --define only the
 //   defined classes run unless --classes names others too.
+//
+// --bound prints, per class, what one record allows instead of running the study: the Cramer-Rao bound on the model
+// ADEV at T/10 from the record's exact likelihood (information_bound.hpp) and the maximum-likelihood fit of that
+// likelihood on one Gaussian draw per seed, told the structure or not (docs/fit.md, "What one record allows").
 //
 // Seeds 1-999 are the tuning set (1-30 by convention), 1001- the validation set (1001-1030); the output says which.
 // Default: seeds 1-20, every class at its default duration and rate.
@@ -80,12 +84,14 @@
 #include <limits>
 #include <map>
 #include <mutex>
+#include <random>
 #include <stdexcept>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include "gyro_allan/analysis.hpp"
+#include "gyro_allan/information_bound.hpp"
 #include "gyro_allan/noise_model.hpp"
 #include "gyro_allan/simulate.hpp"
 #include "gyro_allan/stats.hpp"
@@ -405,15 +411,96 @@ Class defineClass(const std::string& spec) {
 
 double parsePositive(const std::string& s, const char* what) { return parseNumber(s, what, false); }
 
+/// The worst |adev_model/adev_true - 1| over worstAdevError's tau grid for squared coefficients s and truth a.
+double worstOfSquares(const std::array<double, kNumTerms>& s, const AxisNoise& a, double rate_hz, double duration_s) {
+  std::array<Coefficient, kNumTerms> c{};
+  for (int t = 0; t < kNumTerms; ++t) c[static_cast<size_t>(t)].value = std::sqrt(std::max(0.0, s[static_cast<size_t>(t)]));
+  return worstAdevError(c, a, rate_hz, duration_s);
+}
+
+/// --bound: per class, the Cramer-Rao bound on the model ADEV at T/10 from the record's differenced block means
+/// (information_bound.hpp), for an estimator told everything but the class's own B, K, R ("told") and for one that
+/// must also find N, B and K ("open"), with the share of axes a normal error of that size keeps within 25 %; and,
+/// for classes without a ramp, the exact maximum-likelihood fit of the told and of the open terms on one Gaussian
+/// draw of the block differences per seed (what the whole-record likelihood achieves: its in25, median worst error
+/// and share off by more than 50 % over the same tau grid as the study).
+void runBound(const std::vector<Job>& jobs, int s0, int s1) {
+  std::printf("# bound: Cramer-Rao bound on the model ADEV at T/10 from the record's block means (blocks T/1200)\n"
+              "# told: B, K, R unknown where the class has them, N and Q given; open: N, B, K unknown\n"
+              "# ceiling: share of axes a normal error of that sd keeps within 25 %% at T/10 (the worst over tau is larger)\n"
+              "# in25 / med: exact maximum likelihood of the told / open terms (non-negative) on one Gaussian draw per\n"
+              "#   seed (%d draws): share of axes within 25 %%, median worst error and share off by more than 50 %% over the\n"
+              "#   study's tau grid\n",
+              s1 - s0 + 1);
+  std::printf("%-14s %8s %8s %8s %8s %9s %9s %9s %9s %9s %9s\n", "class", "told_sd", "told_cl", "open_sd", "open_cl",
+              "told_in25", "told_med", "told_o50", "open_in25", "open_med", "open_o50");
+  for (const Job& j : jobs) {
+    const AxisNoise& a = j.k.a;
+    const std::array<double, 5> coef{a.quantization, a.angle_random_walk, a.bias_instability, a.rate_random_walk,
+                                     std::abs(a.rate_ramp)};
+    const double T = j.duration_s, block = T / 1200.0, tau_end = T / 10.0;
+    std::array<bool, 5> told{false, false, coef[2] > 0, coef[3] > 0, coef[4] > 0};
+    std::array<bool, 5> open{false, true, true, true, coef[4] > 0};
+    auto ceiling = [](double sd) { return 1.0 - std::erfc(0.25 / sd / std::sqrt(2.0)); };
+    const double sd_told = adevInformationBound(coef, T, block, told, {tau_end}).rel_sd[0];
+    const double sd_open = adevInformationBound(coef, T, block, open, {tau_end}).rel_sd[0];
+    std::string ml[6] = {"-", "-", "-", "-", "-", "-"};  // in25, median, over50 of told, then of open
+    if (coef[4] == 0) {
+      const int n = static_cast<int>(std::floor(T / block)) - 2;
+      std::array<double, 5> s{};
+      for (int t = 0; t < 4; ++t) s[static_cast<size_t>(t)] = coef[static_cast<size_t>(t)] * coef[static_cast<size_t>(t)];
+      const Eigen::LLT<Eigen::MatrixXd> chol(toeplitzMatrix(blockDifferenceAutocovariance(s, block, n), n));
+      double avar_end = 0;
+      for (int t = 0; t < 4; ++t) avar_end += s[static_cast<size_t>(t)] * noiseTermBasis(t, tau_end);
+      for (int mode = 0; mode < 2; ++mode) {
+        const std::array<bool, 5>& which = mode == 0 ? told : open;
+        std::array<double, 5> scale{};  // a free term's search scale: its truth, or (truth 0) its share of avar at T/10
+        for (int t = 0; t < 4; ++t)
+          scale[static_cast<size_t>(t)] =
+              s[static_cast<size_t>(t)] > 0 ? s[static_cast<size_t>(t)] : avar_end / noiseTermBasis(t, tau_end);
+        std::vector<double> worst;
+        for (int seed = s0; seed <= s1; ++seed) {
+          std::mt19937_64 rng(static_cast<uint64_t>(seed) + j.stream);
+          std::normal_distribution<double> g;
+          Eigen::VectorXd e(n);
+          for (int i = 0; i < n; ++i) e(i) = g(rng);
+          const Eigen::VectorXd z = chol.matrixL() * e;
+          // N and Q at their truth; a free term starts at its truth, or off where the truth lacks it.
+          worst.push_back(worstOfSquares(blockLikelihoodFit(z, block, s, which, scale), a, j.rate_hz, T));
+        }
+        const double in25 =
+            static_cast<double>(std::count_if(worst.begin(), worst.end(), [](double w) { return w <= 0.25; })) /
+            static_cast<double>(worst.size());
+        const double over50 =
+            static_cast<double>(std::count_if(worst.begin(), worst.end(), [](double w) { return w > 0.5; })) /
+            static_cast<double>(worst.size());
+        std::sort(worst.begin(), worst.end());
+        char buf[64];
+        std::snprintf(buf, sizeof buf, "%.2f", in25);
+        ml[3 * mode] = buf;
+        std::snprintf(buf, sizeof buf, "%.3f", worst[worst.size() / 2]);
+        ml[3 * mode + 1] = buf;
+        std::snprintf(buf, sizeof buf, "%.3f", over50);
+        ml[3 * mode + 2] = buf;
+      }
+    }
+    std::printf("%-14s %8.3f %8.2f %8.3f %8.2f %9s %9s %9s %9s %9s %9s\n", j.key.c_str(), sd_told, ceiling(sd_told),
+                sd_open, ceiling(sd_open), ml[0].c_str(), ml[1].c_str(), ml[2].c_str(), ml[3].c_str(), ml[4].c_str(),
+                ml[5].c_str());
+    std::fflush(stdout);
+  }
+}
+
 void usage() {
   std::fprintf(stderr,
                "usage: coverage_study [--seeds A-B] [--classes a,b,...] [--duration S | --durations S1,S2,...]\n"
                "                      [--rate HZ] [--max-samples N] [--threads N] [--csv FILE]\n"
                "                      [--method auto|joint_fit|wavelet_split] [--tau-grid G] [--no-model-check]\n"
-               "                      [--no-wavelet-split] [--sawtooth-replicas N] [--list] [--define NAME:key=value,...]...\n"
+               "                      [--no-wavelet-split] [--sawtooth-replicas N] [--list] [--bound] [--define NAME:key=value,...]...\n"
                "  --sawtooth-replicas: records simulated per non-white quantization axis for Q's and N's bias and Q's\n"
                "  sigma, where the output is a detected pulse count (default 10, at least 2; 0: the analytic\n"
                "  allowance instead)\n"
+               "  --bound: per class, the record's information bound and maximum-likelihood fits instead of the study\n"
                "  --define: a class of your own, e.g. my_ramp:rate=200,hours=1,n=0.1,b=0.8,k=0.5,r=40\n"
                "  (keys rate hours q n b k r in dither; units as --list; unset terms 0; repeatable)\n"
                "  seeds 1-999: tuning set (1-30), 1001-: validation set (1001-1030). Default 1-20.\n"
@@ -428,7 +515,7 @@ int main(int argc, char** argv) {
     std::string seeds = "1-20", only, csv_path, durations;
     double duration_override = 0, rate_override = 0, max_samples = 720000;
     int threads = static_cast<int>(std::min(2u, std::max(1u, std::thread::hardware_concurrency())));
-    bool list = false;
+    bool list = false, bound = false;
     AnalysisOptions opt;
     std::vector<Class> defined;
     for (int i = 1; i < argc; ++i) {
@@ -457,6 +544,7 @@ int main(int argc, char** argv) {
           throw std::invalid_argument("--sawtooth-replicas: 0 (off) or a whole number 2..1000");
         opt.split.sawtooth_replicas = static_cast<int>(v);
       } else if (a == "--list") list = true;
+      else if (a == "--bound") bound = true;
       else if (a == "--define") defined.push_back(defineClass(next()));
       else if (a == "--help" || a == "-h") {
         usage();
@@ -528,6 +616,11 @@ int main(int argc, char** argv) {
         if (durs.size() > 1) j.key += "@" + std::to_string(static_cast<long>(std::lround(d))) + "s";
         jobs.push_back(j);
       }
+    }
+
+    if (bound) {
+      runBound(jobs, s0, s1);
+      return 0;
     }
 
     std::vector<Run> runs;
