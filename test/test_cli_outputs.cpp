@@ -392,6 +392,31 @@ TEST_F(Outputs, CoverageStudyRunsADefinedClass) {
     EXPECT_EQ(gyro_allan_test::countLines(b.err), 1) << b.err;
     EXPECT_NE(b.err.find("--define"), std::string::npos) << b.err;
   }
+  // --bound on defined classes: a row per class with the bound and the likelihood fits' figures; a class of N alone
+  // leaves the told estimator nothing to find (bound 0, every draw exact).
+  const ToolRun bd = run(kTools + "/coverage_study --bound --define tiny:rate=20,hours=0.1,n=0.25,k=10 " +
+                         "--define white:rate=20,hours=0.1,n=0.25 --seeds 1-2");
+  ASSERT_EQ(bd.code, 0) << bd.err;
+  int bound_rows = 0;
+  for (const std::string& l : lines(bd.out)) {
+    std::stringstream ss(l);
+    std::string name;
+    double told_sd = -1, told_cl = -1, open_sd = -1, open_cl = -1, told_in25 = -1;
+    ss >> name >> told_sd >> told_cl >> open_sd >> open_cl >> told_in25;
+    if (name != "tiny" && name != "white") continue;
+    ++bound_rows;
+    ASSERT_FALSE(ss.fail()) << l;
+    EXPECT_GT(open_sd, 0) << l;
+    EXPECT_GE(told_in25, 0) << l;
+    EXPECT_LE(told_in25, 1) << l;
+    if (name == "tiny") {
+      EXPECT_GT(told_sd, 0) << l;
+    } else {
+      EXPECT_EQ(told_sd, 0) << l;
+      EXPECT_EQ(told_in25, 1) << l;
+    }
+  }
+  EXPECT_EQ(bound_rows, 2) << bd.out;
   for (const char* bad : {"1", "-2", "2.5", "x", "1001"}) {  // 0 (off) or 2..1000 replicas
     const ToolRun b = run(kTools + "/coverage_study --sawtooth-replicas " + std::string(bad) + " --seeds 1");
     EXPECT_EQ(b.code, 1) << bad;

@@ -441,8 +441,10 @@ void runBound(const std::vector<Job>& jobs, int s0, int s1) {
     const double T = j.duration_s, block = T / 1200.0, tau_end = T / 10.0;
     std::array<bool, 5> told{false, false, coef[2] > 0, coef[3] > 0, coef[4] > 0};
     std::array<bool, 5> open{false, true, true, true, coef[4] > 0};
-    auto ceiling = [](double sd) { return 1.0 - std::erfc(0.25 / sd / std::sqrt(2.0)); };
-    const double sd_told = adevInformationBound(coef, T, block, told, {tau_end}).rel_sd[0];
+    auto ceiling = [](double sd) { return sd > 0 ? 1.0 - std::erfc(0.25 / sd / std::sqrt(2.0)) : 1.0; };
+    // A class of N (and Q) alone leaves the told estimator nothing to find: its bound is 0.
+    const bool told_any = told[2] || told[3] || told[4];
+    const double sd_told = told_any ? adevInformationBound(coef, T, block, told, {tau_end}).rel_sd[0] : 0.0;
     const double sd_open = adevInformationBound(coef, T, block, open, {tau_end}).rel_sd[0];
     std::string ml[6] = {"-", "-", "-", "-", "-", "-"};  // in25, median, over50 of told, then of open
     if (coef[4] == 0) {
@@ -452,12 +454,12 @@ void runBound(const std::vector<Job>& jobs, int s0, int s1) {
       const Eigen::LLT<Eigen::MatrixXd> chol(toeplitzMatrix(blockDifferenceAutocovariance(s, block, n), n));
       double avar_end = 0;
       for (int t = 0; t < 4; ++t) avar_end += s[static_cast<size_t>(t)] * noiseTermBasis(t, tau_end);
+      std::array<double, 5> scale{};  // a free term's search scale: its truth, or (truth 0) its share of avar at T/10
+      for (int t = 0; t < 4; ++t)
+        scale[static_cast<size_t>(t)] =
+            s[static_cast<size_t>(t)] > 0 ? s[static_cast<size_t>(t)] : avar_end / noiseTermBasis(t, tau_end);
       for (int mode = 0; mode < 2; ++mode) {
         const std::array<bool, 5>& which = mode == 0 ? told : open;
-        std::array<double, 5> scale{};  // a free term's search scale: its truth, or (truth 0) its share of avar at T/10
-        for (int t = 0; t < 4; ++t)
-          scale[static_cast<size_t>(t)] =
-              s[static_cast<size_t>(t)] > 0 ? s[static_cast<size_t>(t)] : avar_end / noiseTermBasis(t, tau_end);
         std::vector<double> worst;
         for (int seed = s0; seed <= s1; ++seed) {
           std::mt19937_64 rng(static_cast<uint64_t>(seed) + j.stream);
