@@ -373,8 +373,8 @@ int identifyNoiseAlpha(DevKind kind, const std::vector<PhaseSpan>& phases, int64
   for (const auto& p : phases)
     if (p.n >= 2) total += (p.n - 1) / m + 1;
   // Fewer than 30 points: no reliable identification here; the caller reuses the neighbouring point's alpha.
-  // (A B1-ratio fallback was tried: on PHASE.DAT and the OCXO record it disagreed with Stable32's choice at most
-  // such points and flipped between PM and FM from one m to the next, which made the EDF weights jump.)
+  // (A B1-ratio identification is not used there: on PHASE.DAT and the OCXO record it disagrees with Stable32's
+  // choice at most such points and flips between PM and FM from one m to the next, which makes the EDF weights jump.)
   if (total < 30) return kNoAlpha;
   // Riley & Greenhall lag-1 ACF: difference until delta = r1/(1+r1) < 0.25 (at most dmax = 2 times);
   // alpha = 2 - round(2 delta) - 2 d (phase data), clamped to [-2, 2].
