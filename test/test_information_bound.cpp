@@ -63,6 +63,8 @@ TEST(InformationBound, WhiteNoiseAloneHasTheExactFisherInformation) {
   for (double r : b.rel_sd) EXPECT_NEAR(r, 0.5 * std::sqrt(2.0 / n), 1e-9);
   EXPECT_THROW(adevInformationBound({0, 2e-4, 0, 0, 0}, 10, 1, {false, true, false, false, false}, {1.0}),
                std::invalid_argument);
+  EXPECT_THROW(adevInformationBound({0, 2e-4, 0, 0, 0}, 1000, 0, {false, true, false, false, false}, {1.0}),
+               std::invalid_argument);
   EXPECT_THROW(adevInformationBound({0, 2e-4, 0, 0, 0}, 1000, 1, {false, false, false, false, false}, {1.0}),
                std::invalid_argument);
   EXPECT_THROW(adevInformationBound({0, 2e-4, 0, 0, 0}, 1000, 1, {false, true, false, false, true}, {1.0}),

@@ -105,8 +105,9 @@ std::array<double, 5> blockLikelihoodFit(const Eigen::VectorXd& z, double block_
 
 AdevBound adevInformationBound(const std::array<double, 5>& coef, double duration_s, double block_s,
                                const std::array<bool, 5>& free, const std::vector<double>& tau) {
+  if (!(block_s > 0) || !(duration_s / block_s >= 18))
+    throw std::invalid_argument("adevInformationBound: fewer than 16 block differences");
   const int n = static_cast<int>(std::floor(duration_s / block_s)) - 2;
-  if (!(block_s > 0) || n < 16) throw std::invalid_argument("adevInformationBound: fewer than 16 block differences");
   if (free[kRateRamp] && coef[kRateRamp] == 0)
     throw std::invalid_argument("adevInformationBound: a free rate ramp needs a true R other than 0");
   std::array<double, 5> s{};
