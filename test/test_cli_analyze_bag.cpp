@@ -118,6 +118,14 @@ TEST_F(Cli, DefaultBagIsACleanControl) {
     EXPECT_EQ(a["method"].as<std::string>(), "joint_fit") << ax;
     ASSERT_TRUE(a["model_check"]) << ax;
     EXPECT_EQ(a["model_check"]["effects"].size(), 0u) << ax << ": " << YAML::Dump(a["model_check"]["effects"]);
+    // Where lines were looked for: the whole-record periodogram from 4 periods per record, the Welch PSD up to
+    // Nyquist (the bundled bag: 100 Hz).
+    const YAML::Node ls = a["model_check"]["line_search"];
+    ASSERT_TRUE(ls) << ax;
+    EXPECT_GT(ls["periodogram_frequencies"].as<int>(), 0) << ax;
+    EXPECT_DOUBLE_EQ(ls["periodogram_band_hz"][1].as<double>(), ls["welch_band_hz"][0].as<double>()) << ax;
+    EXPECT_DOUBLE_EQ(ls["welch_band_hz"][1].as<double>(), 50.0) << ax;
+    EXPECT_DOUBLE_EQ(ls["false_alarm_per_band"].as<double>(), 0.005) << ax;
   }
 }
 

@@ -115,7 +115,9 @@ void expectBaseRecovered(const FitResult& f, const AxisNoise& truth, bool check_
 // for these records), so its ratio says little once the effect is in.
 void expectEffectExplainsData(const ModelCheck& mc, bool check_worst = true) {
   EXPECT_GE(mc.fit_after.chi2_p, 0.01) << "refit chi2/dof " << mc.after.chi2_dof;
-  if (check_worst) EXPECT_LE(mc.fit_after.worst_adev_ratio, 1.25);
+  if (check_worst) {
+    EXPECT_LE(mc.fit_after.worst_adev_ratio, 1.25);
+  }
 }
 
 // Angle random walk within 3 % of the truth (beside an added stochastic effect, the long-tau terms' intervals are
@@ -328,6 +330,13 @@ TEST(ModelCheck, SlowSinusoidFound) {
     EXPECT_NEAR(fp.value, f, 0.01 * f);
     EXPECT_NEAR(std::fabs(param(*sine, "amplitude")), 2e-4, 0.2 * 2e-4) << "f " << f;
     EXPECT_LE(5 * o.mc.after.rms_log10, o.mc.before.rms_log10) << "f " << f;
+    // The band searched (report.yaml line_search): the whole-record periodogram from 4 periods per record to 32 bins
+    // of the 8192-sample Welch PSD, 464 whole-record bins, the count the line's false-alarm probability is over.
+    EXPECT_DOUBLE_EQ(o.mc.line_search.slow_lo_hz, 4.0 / 1200.0);
+    EXPECT_DOUBLE_EQ(o.mc.line_search.slow_hi_hz, 32 * 100.0 / 8192);
+    EXPECT_EQ(o.mc.line_search.slow_frequencies, 464);
+    EXPECT_NE(sine->evidence.find("over 464 frequencies"), std::string::npos) << sine->evidence;
+    EXPECT_DOUBLE_EQ(o.mc.line_search.false_alarm_each, 0.005);
   }
 }
 

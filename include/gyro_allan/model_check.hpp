@@ -127,6 +127,16 @@ struct ModelCheckOptions {
        search_outliers = true;
 };
 
+/// The band the periodic-effect search covered: the whole-record periodogram from slow_lo_hz (line_min_periods per
+/// record) to slow_hi_hz, the Welch PSD from there to nyquist_hz; each band's whole-record bins (independent
+/// frequencies), each band tested at a family-wise false-alarm probability of line_false_alarm / 2. All zero when no
+/// line was searched.
+struct LineSearchBand {
+  double slow_lo_hz = 0, slow_hi_hz = 0, nyquist_hz = 0;
+  int slow_frequencies = 0, welch_frequencies = 0;
+  double false_alarm_each = 0;
+};
+
 struct ModelCheck {
   bool ok = false;
   std::string message;
@@ -136,6 +146,7 @@ struct ModelCheck {
   std::vector<std::string> rejected;        ///< candidates examined and not kept, with the reason
   FitResult fit_before, fit_after;          ///< fit_after: base coefficients + effects jointly
   std::vector<ExtraTerm> extra;             ///< the ExtraTerms of fit_after (same order as effects)
+  LineSearchBand line_search;               ///< where lines were searched, at which false-alarm level
   std::vector<double> tau, measured_var, model_var_before, model_var_after;  ///< at the curve points
 };
 

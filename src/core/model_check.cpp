@@ -659,6 +659,19 @@ struct SpectralFeatures {
   int64_t fine = 0;                   // segment length of the fine PSD
 };
 
+// The two bands of the line search: the whole-record periodogram from line_min_periods per record up to 32 bins of
+// the fine Welch PSD (segments of `fine` samples), the Welch PSD above; each band's whole-record bins.
+LineSearchBand lineSearchBand(const CheckInput& in, int64_t fine) {
+  LineSearchBand b;
+  b.slow_lo_hz = in.opts.line_min_periods / in.T;
+  b.slow_hi_hz = std::min(32.0 * in.fs / static_cast<double>(fine), 0.45 * in.fs);
+  b.nyquist_hz = 0.5 * in.fs;
+  b.slow_frequencies = std::max(0, static_cast<int>(std::floor((b.slow_hi_hz - b.slow_lo_hz) * in.T)));
+  b.welch_frequencies = std::max(1, static_cast<int>((b.nyquist_hz - b.slow_hi_hz) * in.T));
+  b.false_alarm_each = 0.5 * in.opts.line_false_alarm;
+  return b;
+}
+
 // Welch PSD peaks at a fine and a coarse resolution, the same feature found at both merged.
 SpectralFeatures findSpectralFeatures(const CheckInput& in) {
   const int64_t n = in.n;
@@ -752,11 +765,11 @@ void measureBroadFeatures(const CheckInput& in, SpectralFeatures* sf) {
 // Welch feature is part of it and dropped. Every other Welch line is refined on the samples within +-1.5 of its bins
 // (refineLine), its noise level the PSD floor there.
 void refineLines(const CheckInput& in, SpectralFeatures* sf) {
-  const double f_lo = in.opts.line_min_periods / in.T;
-  const double f_hi = std::min(32.0 * in.fs / static_cast<double>(sf->fine), 0.45 * in.fs);
+  const LineSearchBand band = lineSearchBand(in, sf->fine);
+  const double f_lo = band.slow_lo_hz, f_hi = band.slow_hi_hz;
   std::vector<SpectralLine> slow;
   if (sf->fine >= 64 && f_hi > f_lo)
-    slow = findSlowLines(in.rate, in.fs, f_lo, f_hi, 0.5 * in.opts.line_false_alarm, in.opts.psd_max_peaks);
+    slow = findSlowLines(in.rate, in.fs, f_lo, f_hi, band.false_alarm_each, in.opts.psd_max_peaks);
   std::vector<SpectralPeak> peaks;
   std::vector<bool> broad;
   std::vector<FeatureExcess> excess;
@@ -801,7 +814,7 @@ void refineLines(const CheckInput& in, SpectralFeatures* sf) {
     if (line && peaks[k].floor > 0 && peaks[k].frequency_hz > 1.5 * peaks[k].df &&
         peaks[k].frequency_hz + 1.5 * peaks[k].df < in.fs / 2) {
       SpectralLine l = refineLine(in.rate, in.fs, peaks[k].frequency_hz, 1.5 * peaks[k].df, peaks[k].floor);
-      l.frequencies = std::max(1, static_cast<int>((0.5 * in.fs - f_hi) * in.T));
+      l.frequencies = band.welch_frequencies;
       l.false_alarm = lineFalseAlarm(l.power_ratio, l.frequencies);
       sf->line_of_peak.push_back(static_cast<int>(sf->lines.size()));
       sf->lines.push_back(l);
@@ -1683,6 +1696,7 @@ ModelCheck checkModel(const std::vector<double>& rate, double tau0, const Deviat
                               fmt("%.0f", 100 * opts.min_rms_gain) + " %)");
     }
   }
+  if (spectral && sf.fine >= 64) mc.line_search = lineSearchBand(in, sf.fine);
   mc.ok = true;
   return mc;
 }

@@ -123,6 +123,17 @@ YAML::Node checkNode(const ModelCheck& c) {
   n["coefficients"] = coefficientsNode(c.fit_after);
   n["rejected"] = YAML::Node(YAML::NodeType::Sequence);
   for (const auto& r : c.rejected) n["rejected"].push_back(str(r));
+  if (c.line_search.slow_frequencies > 0) {
+    YAML::Node ls;
+    ls["periodogram_band_hz"].push_back(num(c.line_search.slow_lo_hz));
+    ls["periodogram_band_hz"].push_back(num(c.line_search.slow_hi_hz));
+    ls["periodogram_frequencies"] = c.line_search.slow_frequencies;
+    ls["welch_band_hz"].push_back(num(c.line_search.slow_hi_hz));
+    ls["welch_band_hz"].push_back(num(c.line_search.nyquist_hz));
+    ls["welch_frequencies"] = c.line_search.welch_frequencies;
+    ls["false_alarm_per_band"] = num(c.line_search.false_alarm_each);
+    n["line_search"] = ls;
+  }
   return n;
 }
 
