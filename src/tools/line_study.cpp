@@ -131,8 +131,8 @@ double declaredPsd(const Class& k, double f) {
   return 2 * N * N + B * B / (M_PI * f) + K * K / (2 * M_PI * M_PI * f * f);
 }
 
-// Chance that a test knowing the noise level exactly finds the line: its whole-record periodogram, x = A^2 T / (2 S)
-// times the level on average (half a non-central chi-squared with 2 degrees of freedom and non-centrality 2x),
+// Chance that a test knowing the noise level exactly finds the line: the ratio of its whole-record periodogram to the
+// level (half a non-central chi-squared with 2 degrees of freedom and non-centrality 2x, x = A^2 T / (2 S), mean 1 + x)
 // exceeds the threshold of the model check's family-wise test over the line's band, and its least-squares amplitude
 // (Cramer-Rao sigma A / sqrt(2x)) falls within 20 %. What the search would reach without a level to estimate.
 double idealFound(const Class& k, const Line& l, const LineSearchBand& band) {
@@ -145,7 +145,7 @@ double idealFound(const Class& k, const Line& l, const LineSearchBand& band) {
   }
   const double x = l.amplitude * l.amplitude * k.duration_s / (2 * declaredPsd(k, l.f));
   const double detect =
-      x > 3 * hi + 60 ? 1.0
+      x > 3 * hi + 60 ? 1.0  // beyond, a miss is rarer than 1e-9
                       : boost::math::cdf(boost::math::complement(boost::math::non_central_chi_squared(2, 2 * x), 2 * hi));
   const double amp = 2 * boost::math::cdf(boost::math::normal(), 0.2 * std::sqrt(2 * x)) - 1;
   return detect * amp;
