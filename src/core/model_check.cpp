@@ -657,6 +657,7 @@ struct SpectralFeatures {
   std::vector<int> line_of_peak;      // to peaks: index in lines, -1 for a broad feature)
   int64_t coarse = 0;                 // segment length of the coarse PSD
   int64_t fine = 0;                   // segment length of the fine PSD
+  LineSearchBand band;                // where refineLines looked for lines (zero when it did not)
 };
 
 // The two bands of the line search: the whole-record periodogram from line_min_periods per record up to 32 bins of
@@ -765,7 +766,8 @@ void measureBroadFeatures(const CheckInput& in, SpectralFeatures* sf) {
 // Welch feature is part of it and dropped. Every other Welch line is refined on the samples within +-1.5 of its bins
 // (refineLine), its noise level the PSD floor there.
 void refineLines(const CheckInput& in, SpectralFeatures* sf) {
-  const LineSearchBand band = lineSearchBand(in, sf->fine);
+  sf->band = lineSearchBand(in, sf->fine);
+  const LineSearchBand& band = sf->band;
   const double f_lo = band.slow_lo_hz, f_hi = band.slow_hi_hz;
   std::vector<SpectralLine> slow;
   if (sf->fine >= 64 && f_hi > f_lo)
@@ -1696,7 +1698,7 @@ ModelCheck checkModel(const std::vector<double>& rate, double tau0, const Deviat
                               fmt("%.0f", 100 * opts.min_rms_gain) + " %)");
     }
   }
-  if (spectral && sf.fine >= 64) mc.line_search = lineSearchBand(in, sf.fine);
+  if (sf.fine >= 64) mc.line_search = sf.band;
   mc.ok = true;
   return mc;
 }
