@@ -12,6 +12,7 @@ PKGS=(
   libdynamic-reconfigure-config-init-mutex-dev python3-dynamic-reconfigure ros-std-srvs libstd-srvs-dev
   python3-rostopic python3-rosservice python3-std-srvs
   libgtest-dev libbenchmark-dev libeigen3-dev libyaml-cpp-dev libboost-dev zlib1g-dev
+  libsqlite3-dev libzstd-dev liblz4-dev
   python3-numpy python3-matplotlib python3-yaml
   libopencv-imgproc-dev
 )
