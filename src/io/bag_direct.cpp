@@ -328,23 +328,30 @@ bool readImuBagsDirect(const std::vector<std::string>& paths, const BagReadOptio
     std::map<std::string, std::string> topics;
     for (const auto& b : bags)
       for (const auto& kv : b.connections) topics.insert({kv.second.topic, kv.second.type});
-    std::string topic, temp_topic;
+    bag_detail::TopicChoice choice;
     try {
-      bag_detail::chooseTopics(topics, options, &topic, &temp_topic);
+      choice = bag_detail::chooseTopics(topics, options);
     } catch (const InputError&) {
       return false;
     }
+    const std::string& topic = choice.topic;
+    const std::string& temp_topic = choice.temperature;
+    const std::string& accel_topic = choice.accel_topic;
+    BagReadOptions opt = options;
+    opt.accel_topic = accel_topic;
 
     ImuSeries s;
     s.topic = topic;
     s.temperature_topic = temp_topic;
-    size_t total = 0;
+    s.accel_topic = accel_topic;
+    size_t total = 0, accel_total = 0;
     for (const auto& b : bags)
       for (const auto& c : b.chunks)
         for (const auto& kv : c.counts) {
           const auto it = b.connections.find(kv.first);
           if (it == b.connections.end()) return false;
           if (it->second.topic == topic) total += kv.second;
+          if (!accel_topic.empty() && it->second.topic == accel_topic) accel_total += kv.second;
         }
     const bool angle = !options.angle_topic.empty();
     for (auto& x : s.gyro) x.reserve(total);
@@ -353,7 +360,7 @@ bool readImuBagsDirect(const std::vector<std::string>& paths, const BagReadOptio
     s.t.reserve(total);
     const bool show = options.progress && isatty(fileno(stderr));
     size_t next_report = total / 50 + 1;
-    bag_detail::ImuAppender app(&s, options);
+    bag_detail::ImuAppender app(&s, opt);
     sensor_msgs::Imu imu;  // reused for every message
     geometry_msgs::Vector3Stamped vec;  // the same, for an angle topic
     sensor_msgs::Temperature tm;
@@ -361,7 +368,8 @@ bool readImuBagsDirect(const std::vector<std::string>& paths, const BagReadOptio
     std::string chunk;
     for (const auto& b : bags) {
       s.bags.push_back(b.path);
-      // Wanted connections: 1 = IMU, 2 = temperature (skipped, like a failed instantiate, on a definition mismatch).
+      // Wanted connections: 1 = IMU, 2 = temperature (skipped, like a failed instantiate, on a definition mismatch),
+      // 3 = the separate accelerometer.
       std::map<uint32_t, int> wanted;
       for (const auto& kv : b.connections) {
         if (kv.second.topic == topic) {
@@ -372,6 +380,11 @@ bool readImuBagsDirect(const std::vector<std::string>& paths, const BagReadOptio
                                       md5Matches(kv.second.md5, ros::message_traits::MD5Sum<sensor_msgs::Imu>::value());
           if (!ok) return false;  // rosbag reports the mismatch
           wanted[kv.first] = 1;
+        } else if (!accel_topic.empty() && kv.second.topic == accel_topic) {
+          if (kv.second.type != kImuType ||
+              !md5Matches(kv.second.md5, ros::message_traits::MD5Sum<sensor_msgs::Imu>::value()))
+            return false;
+          wanted[kv.first] = 3;
         } else if (!temp_topic.empty() && kv.second.topic == temp_topic) {
           if (md5Matches(kv.second.md5, ros::message_traits::MD5Sum<sensor_msgs::Temperature>::value()))
             wanted[kv.first] = 2;
@@ -412,6 +425,11 @@ bool readImuBagsDirect(const std::vector<std::string>& paths, const BagReadOptio
           const ros::Time rec_time(u32(tf), u32(tf + 4));
           if (rec_time < last) return false;
           last = rec_time;
+          if (w->second == 3) {
+            deserialize(data, dlen, &imu);
+            app.addAccel(rec_time, imu);
+            continue;
+          }
           if (w->second == 2) {
             deserialize(data, dlen, &tm);
             temp_abs.push_back(options.use_bag_time ? rec_time : tm.header.stamp);
@@ -434,11 +452,13 @@ bool readImuBagsDirect(const std::vector<std::string>& paths, const BagReadOptio
       }
     }
     const size_t done = app.offered();
-    if (done != total) return false;  // the index promised other counts: let rosbag judge
+    if (done != total || static_cast<size_t>(s.accel_messages) != accel_total)
+      return false;  // the index promised other counts: let rosbag judge
     if (show) std::fprintf(stderr, "\rreading %s: done     \n", topic.c_str());
     s.messages = static_cast<int64_t>(done);
     if (s.t.empty()) return false;  // rosbag path gives the "no messages in the range" error
     bag_detail::finishTemperature(temp_abs, app.origin(), &s.temperature_t);
+    app.finish();
     s.reader = "direct";
     *out = std::move(s);
     return true;

@@ -5,6 +5,10 @@
 #include <string>
 #include <vector>
 
+#include <algorithm>
+#include <array>
+#include <climits>
+#include <limits>
 #include <map>
 
 #include <ros/time.h>
@@ -39,24 +43,38 @@ inline void finishTemperature(const std::vector<ros::Time>& abs, ros::Time* orig
   for (const auto& t : abs) rel->push_back(relativeStamp(t, origin));
 }
 
-/// The topic choice of readImuBags (the only sensor_msgs/Imu topic unless given, or the given angle topic; the only
-/// Temperature topic, if any, unless given or "-"): throws InputError naming the problem. `topics`: topic -> type over all bags.
-void chooseTopics(const std::map<std::string, std::string>& topics, const BagReadOptions& options, std::string* topic,
-                  std::string* temp_topic);
+/// The topics readImuBags reads, chosen from `topics` (topic -> type over all bags, ROS 1 or ROS 2 type names).
+struct TopicChoice {
+  std::string topic;        ///< the IMU (or angle) topic
+  std::string accel_topic;  ///< a separate accelerometer topic, or empty
+  std::string temperature;  ///< the temperature topic, or empty
+  std::string note;         ///< how a choice was made that the user did not ask for (the gyro/accel pair), or empty
+};
+/// The only sensor_msgs/Imu topic unless given (or the only two, when named as a gyro/accel pair), or the given
+/// angle topic; the given accelerometer topic; the only Temperature topic, if any, unless given or "-". Throws
+/// InputError naming the problem.
+TopicChoice chooseTopics(const std::map<std::string, std::string>& topics, const BagReadOptions& options);
 
-/// Appends IMU messages to a series as both readers do: stamps relative to the first non-zero one, the --start /
-/// --duration window, the frame id; counts every message offered.
+/// Appends IMU messages to a series as every reader does: stamps relative to the first non-zero one, the --start /
+/// --duration window, the frame id; counts every message offered. A half of an Imu flagged as absent
+/// (covariance[0] = -1, sensor_msgs/Imu's convention) is stored as NaN and counted. Messages of a separate
+/// accelerometer topic (BagReadOptions::accel_topic) get their own stamps, relative to the same origin.
 class ImuAppender {
  public:
   ImuAppender(ImuSeries* s, const BagReadOptions& o) : s_(s), o_(o) {}
   void add(const ros::Time& record_time, const sensor_msgs::Imu& imu) {
     if (!keep(record_time, imu.header)) return;
-    s_->gyro[0].push_back(imu.angular_velocity.x);
-    s_->gyro[1].push_back(imu.angular_velocity.y);
-    s_->gyro[2].push_back(imu.angular_velocity.z);
-    s_->accel[0].push_back(imu.linear_acceleration.x);
-    s_->accel[1].push_back(imu.linear_acceleration.y);
-    s_->accel[2].push_back(imu.linear_acceleration.z);
+    const bool no_gyro = imu.angular_velocity_covariance[0] == -1.0;
+    const bool no_accel = imu.linear_acceleration_covariance[0] == -1.0;
+    s_->gyro_flagged += no_gyro;
+    s_->gyro[0].push_back(no_gyro ? kNaN : imu.angular_velocity.x);
+    s_->gyro[1].push_back(no_gyro ? kNaN : imu.angular_velocity.y);
+    s_->gyro[2].push_back(no_gyro ? kNaN : imu.angular_velocity.z);
+    if (!o_.accel_topic.empty()) return;  // the accelerometer comes from its own topic
+    s_->accel_flagged += no_accel;
+    s_->accel[0].push_back(no_accel ? kNaN : imu.linear_acceleration.x);
+    s_->accel[1].push_back(no_accel ? kNaN : imu.linear_acceleration.y);
+    s_->accel[2].push_back(no_accel ? kNaN : imu.linear_acceleration.z);
   }
   /// An angle message (BagReadOptions::angle_topic): the same, with the vector as the three gyro values and no
   /// accelerometer.
@@ -66,12 +84,41 @@ class ImuAppender {
     s_->gyro[1].push_back(m.vector.y);
     s_->gyro[2].push_back(m.vector.z);
   }
+  /// A message of the separate accelerometer topic: its stamp and linear_acceleration (kept whatever the time
+  /// window: finish() cuts it to the gyro's span).
+  void addAccel(const ros::Time& record_time, const sensor_msgs::Imu& imu) {
+    ++s_->accel_messages;
+    const ros::Time stamp = o_.use_bag_time ? record_time : imu.header.stamp;
+    accel_t_.push_back(relativeStampNs(stamp, &origin_));
+    const bool no_accel = imu.linear_acceleration_covariance[0] == -1.0;
+    s_->accel_flagged += no_accel;
+    accel_[0].push_back(no_accel ? kNaN : imu.linear_acceleration.x);
+    accel_[1].push_back(no_accel ? kNaN : imu.linear_acceleration.y);
+    accel_[2].push_back(no_accel ? kNaN : imu.linear_acceleration.z);
+  }
+  /// After the last message: the separate accelerometer's samples within the gyro's kept span (zero stamps kept:
+  /// its sanitation counts them) moved into the series.
+  void finish() {
+    if (o_.accel_topic.empty()) return;
+    int64_t lo = INT64_MAX, hi = INT64_MIN;
+    for (int64_t ns : s_->t.toNanoseconds())
+      if (ns != 0) lo = std::min(lo, ns), hi = std::max(hi, ns);
+    for (size_t i = 0; i < accel_t_.size(); ++i) {
+      const int64_t ns = accel_t_[i];
+      if (ns != 0 && (ns < lo || ns > hi)) continue;
+      s_->accel_t.push_back(ns);
+      for (int k = 0; k < 3; ++k) s_->accel[k].push_back(accel_[k][i]);
+    }
+    accel_t_.clear();
+    for (auto& a : accel_) a.clear();
+  }
   /// Messages offered so far (kept or not).
   size_t offered() const { return offered_; }
   /// Zero until the first non-zero stamp; temperature stamps are made relative to it at the end.
   ros::Time* origin() { return &origin_; }
 
  private:
+  static constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
   /// Counts the message and, when it is in the time window, appends its stamp (and the frame id): true.
   bool keep(const ros::Time& record_time, const std_msgs::Header& header) {
     ++offered_;
@@ -92,7 +139,17 @@ class ImuAppender {
   ros::Time origin_;
   double t_first_ = -1;
   size_t offered_ = 0;
+  std::vector<int64_t> accel_t_;              // the separate accelerometer until finish()
+  std::array<std::vector<double>, 3> accel_;
 };
+
+/// Reads ROS 2 bags (rosbag2 folders, .mcap / .db3 files; rosbag2/storage.hpp) as readImuBags reads ROS 1 bags:
+/// the same topic choice, appender and errors. Throws InputError.
+ImuSeries readRos2Bags(const std::vector<std::string>& paths, const BagReadOptions& options);
+
+/// Whether a stored type is the ROS 1 type `ros1` ("sensor_msgs/Imu") in its ROS 1 or ROS 2 spelling
+/// ("sensor_msgs/msg/Imu").
+bool isType(const std::string& stored, const char* ros1);
 
 }  // namespace bag_detail
 

@@ -1,7 +1,9 @@
-// Streaming rosbag reader for sensor_msgs/Imu (or geometry_msgs/Vector3Stamped angles) and sensor_msgs/Temperature.
+// Streaming bag reader for sensor_msgs/Imu (or geometry_msgs/Vector3Stamped angles) and sensor_msgs/Temperature:
+// ROS 1 bags here (the direct chunk reader, else rosbag::View), ROS 2 bags in ros2_input.cpp.
 #include "gyro_allan/io/bag_input.hpp"
 
 #include "bag_direct.hpp"
+#include "gyro_allan/rosbag2/storage.hpp"
 
 #include <unistd.h>
 
@@ -43,51 +45,75 @@ struct OpenBag {
 
 namespace bag_detail {
 
-void chooseTopics(const std::map<std::string, std::string>& topics, const BagReadOptions& options, std::string* topic_out,
-                  std::string* temp_topic_out) {
-  std::string topic = options.topic;
-  if (!options.angle_topic.empty()) {
-    if (!topic.empty()) throw InputError("give an IMU topic or an angle topic, not both");
-    topic = options.angle_topic;
-    auto it = topics.find(topic);
+bool isType(const std::string& stored, const char* ros1) {
+  if (stored == ros1) return true;
+  const std::string r(ros1);
+  const size_t slash = r.find('/');
+  return slash != std::string::npos && stored == r.substr(0, slash) + "/msg" + r.substr(slash);
+}
+
+TopicChoice chooseTopics(const std::map<std::string, std::string>& topics, const BagReadOptions& options) {
+  TopicChoice c;
+  auto checkType = [&](const std::string& topic, const char* type, const char* what) {
+    const auto it = topics.find(topic);
     if (it == topics.end())
-      throw InputError("angle topic '" + topic + "' is not in the bag (topics: " + joinTopics(topics) + ")");
-    if (it->second != kAngleType)
-      throw InputError("angle topic '" + topic + "' has type " + it->second + ", not " + kAngleType);
-  } else if (!topic.empty()) {
-    auto it = topics.find(topic);
-    if (it == topics.end()) throw InputError("topic '" + topic + "' is not in the bag (topics: " + joinTopics(topics) + ")");
-    if (it->second != kImuType)
-      throw InputError("topic '" + topic + "' has type " + it->second + ", not " + kImuType);
+      throw InputError(std::string(what) + "'" + topic + "' is not in the bag (topics: " + joinTopics(topics) + ")");
+    if (!isType(it->second, type))
+      throw InputError(std::string(what) + "'" + topic + "' has type " + it->second + ", not " + type);
+  };
+  if (!options.angle_topic.empty()) {
+    if (!options.topic.empty()) throw InputError("give an IMU topic or an angle topic, not both");
+    if (!options.accel_topic.empty()) throw InputError("an angle topic has no accelerometer: --accel-topic is for IMU topics");
+    c.topic = options.angle_topic;
+    checkType(c.topic, kAngleType, "angle topic ");
+  } else if (!options.topic.empty()) {
+    c.topic = options.topic;
+    checkType(c.topic, kImuType, "topic ");
   } else {
     std::vector<std::string> imu;
     for (const auto& kv : topics)
-      if (kv.second == kImuType) imu.push_back(kv.first);
+      if (isType(kv.second, kImuType)) imu.push_back(kv.first);
     if (imu.empty()) throw InputError(std::string("no ") + kImuType + " topic in the bag (topics: " + joinTopics(topics) + ")");
-    if (imu.size() > 1) {
+    auto has = [](const std::string& s, const char* w) { return s.find(w) != std::string::npos; };
+    if (imu.size() == 2 && options.accel_topic.empty()) {
+      // A camera's split streams (RealSense: /camera/gyro/sample at 200/400 Hz, /camera/accel/sample at 63/250 Hz).
+      for (int k = 0; k < 2 && c.topic.empty(); ++k)
+        if (has(imu[k], "gyro") && !has(imu[k], "accel") && has(imu[1 - k], "accel") && !has(imu[1 - k], "gyro")) {
+          c.topic = imu[k];
+          c.accel_topic = imu[1 - k];
+          c.note = "gyro from " + c.topic + ", accelerometer from " + c.accel_topic + " (a split gyro/accel pair)";
+        }
+    }
+    if (c.topic.empty() && !options.accel_topic.empty()) {
+      imu.erase(std::remove(imu.begin(), imu.end(), options.accel_topic), imu.end());
+      if (imu.size() == 1) c.topic = imu.front();
+    }
+    if (c.topic.empty() && imu.size() == 1) c.topic = imu.front();
+    if (c.topic.empty()) {
       std::string list;
       for (const auto& t : imu) list += (list.empty() ? "" : ", ") + t;
-      throw InputError("several " + std::string(kImuType) + " topics (" + list + "): choose one with --topic");
+      throw InputError("several " + std::string(kImuType) + " topics (" + list + "): choose one with --topic" +
+                       " (and a separate accelerometer stream with --accel-topic)");
     }
-    topic = imu.front();
+  }
+  if (!options.accel_topic.empty()) {
+    c.accel_topic = options.accel_topic;
+    checkType(c.accel_topic, kImuType, "accelerometer topic ");
+    if (c.accel_topic == c.topic) throw InputError("--accel-topic is the IMU topic itself");
   }
   std::string temp_topic = options.temperature_topic;
   if (temp_topic == "-") {
     temp_topic.clear();
   } else if (!temp_topic.empty()) {
-    auto it = topics.find(temp_topic);
-    if (it == topics.end()) throw InputError("temperature topic '" + temp_topic + "' is not in the bag");
-    if (it->second != kTempType)
-      throw InputError("topic '" + temp_topic + "' has type " + it->second + ", not " + kTempType);
+    checkType(temp_topic, kTempType, "temperature topic ");
   } else {
     std::vector<std::string> tt;
     for (const auto& kv : topics)
-      if (kv.second == kTempType) tt.push_back(kv.first);
+      if (isType(kv.second, kTempType)) tt.push_back(kv.first);
     if (tt.size() == 1) temp_topic = tt.front();
   }
-
-  *topic_out = topic;
-  *temp_topic_out = temp_topic;
+  c.temperature = temp_topic;
+  return c;
 }
 
 }  // namespace bag_detail
@@ -96,6 +122,10 @@ ImuSeries readImuBags(const std::vector<std::string>& paths, const BagReadOption
   if (paths.empty()) throw InputError("no bag given");
   if (options.start_s < 0 || options.duration_s < 0) throw InputError("--start and --duration must be >= 0");
   if (options.reader != "auto" && options.reader != "rosbag") throw InputError("reader must be auto or rosbag");
+  size_t ros2 = 0;
+  for (const auto& p : paths) ros2 += rosbag2::isRos2Input(p);
+  if (ros2 == paths.size()) return bag_detail::readRos2Bags(paths, options);
+  if (ros2 > 0) throw InputError("give ROS 1 bags or one ROS 2 recording, not both");
   {
     ImuSeries direct;
     if (options.reader == "auto" && readImuBagsDirect(paths, options, &direct)) return direct;
@@ -127,12 +157,16 @@ ImuSeries readImuBags(const std::vector<std::string>& paths, const BagReadOption
   // Topic choice: the same across bags.
   std::map<std::string, std::string> topics;
   for (const auto& b : bags) topics.insert(b.topics.begin(), b.topics.end());
-  std::string topic, temp_topic;
-  bag_detail::chooseTopics(topics, options, &topic, &temp_topic);
+  const bag_detail::TopicChoice choice = bag_detail::chooseTopics(topics, options);
+  const std::string& topic = choice.topic;
+  const std::string& temp_topic = choice.temperature;
+  BagReadOptions opt = options;
+  opt.accel_topic = choice.accel_topic;
 
   ImuSeries s;
   s.topic = topic;
   s.temperature_topic = temp_topic;
+  s.accel_topic = choice.accel_topic;
   size_t total = 0;
   for (auto& b : bags) {
     rosbag::View v(*b.bag, rosbag::TopicQuery(topic));
@@ -145,12 +179,13 @@ ImuSeries readImuBags(const std::vector<std::string>& paths, const BagReadOption
   s.t.reserve(total);
   const bool show = options.progress && isatty(fileno(stderr));
   size_t next_report = total / 50 + 1;
-  bag_detail::ImuAppender app(&s, options);
+  bag_detail::ImuAppender app(&s, opt);
   std::vector<ros::Time> temp_abs;
   for (auto& b : bags) {
     s.bags.push_back(b.path);
     std::vector<std::string> wanted{topic};
     if (!temp_topic.empty()) wanted.push_back(temp_topic);
+    if (!opt.accel_topic.empty()) wanted.push_back(opt.accel_topic);
     try {
       rosbag::View view(*b.bag, rosbag::TopicQuery(wanted));
       for (const rosbag::MessageInstance& m : view) {
@@ -159,6 +194,12 @@ ImuSeries readImuBags(const std::vector<std::string>& paths, const BagReadOption
           if (!tm) continue;
           temp_abs.push_back(options.use_bag_time ? m.getTime() : tm->header.stamp);
           s.temperature.push_back(tm->temperature);
+          continue;
+        }
+        if (m.getTopic() == opt.accel_topic) {
+          auto imu = m.instantiate<sensor_msgs::Imu>();
+          if (!imu) throw InputError("accelerometer topic '" + opt.accel_topic + "' holds a message that is not " + kImuType);
+          app.addAccel(m.getTime(), *imu);
           continue;
         }
         if (angle) {
@@ -186,6 +227,7 @@ ImuSeries readImuBags(const std::vector<std::string>& paths, const BagReadOption
   if (show) std::fprintf(stderr, "\rreading %s: done     \n", topic.c_str());
   s.messages = static_cast<int64_t>(app.offered());
   s.reader = "rosbag";
+  app.finish();
   bag_detail::finishTemperature(temp_abs, app.origin(), &s.temperature_t);
   if (s.t.empty())
     throw InputError("topic '" + topic + "' has no messages" +

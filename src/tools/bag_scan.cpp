@@ -1,5 +1,6 @@
-// bag_scan: iterates a bag with rosbag::View, deserializing every sensor_msgs/Imu message, and prints message counts
-// per topic: a quick inspector and the baseline that analyze_bag's read time is compared with in benchmarks.
+// bag_scan: prints the topics, types and message counts of a bag: a ROS 1 bag iterated with rosbag::View,
+// deserializing every sensor_msgs/Imu message (the baseline analyze_bag's read time is compared with in benchmarks),
+// or a ROS 2 recording (rosbag2 folder, .mcap, .db3) with its storage layout.
 #include <cstdio>
 #include <map>
 #include <string>
@@ -8,13 +9,25 @@
 #include <rosbag/view.h>
 #include <sensor_msgs/Imu.h>
 
+#include "gyro_allan/rosbag2/storage.hpp"
+
 int main(int argc, char** argv) {
   if (argc < 2 || std::string(argv[1]) == "-h" || std::string(argv[1]) == "--help") {
-    std::printf("usage: bag_scan BAG [BAG...]\nprints topics, types and message counts (deserializing sensor_msgs/Imu)\n");
+    std::printf("usage: bag_scan BAG [BAG...]\nprints topics, types and message counts (deserializing sensor_msgs/Imu);\n"
+                "a BAG may be a ROS 2 recording: a rosbag2 folder, an .mcap or a .db3 file\n");
     return argc < 2 ? 1 : 0;
   }
   for (int i = 1; i < argc; ++i) {
     try {
+      if (gyro_allan::rosbag2::isRos2Input(argv[i])) {
+        gyro_allan::rosbag2::Bag bag({argv[i]});
+        std::printf("%s: ROS 2\n", argv[i]);
+        for (const auto& d : bag.describe()) std::printf("  %s\n", d.c_str());
+        auto counts = bag.messageCounts();
+        for (const auto& kv : bag.topicTypes())
+          std::printf("  %-30s %-28s %lld\n", kv.first.c_str(), kv.second.c_str(), static_cast<long long>(counts[kv.first]));
+        continue;
+      }
       rosbag::Bag bag(argv[i], rosbag::bagmode::Read);
       rosbag::View view(bag);
       std::map<std::string, std::pair<std::string, long>> counts;
