@@ -72,6 +72,10 @@ class OnlineAnalyzer {
   /// angle rad, as options.pipeline.analysis.input says) and linear acceleration [m/s^2] (zeros: not published).
   /// Samples older than window_s behind the newest stamps leave the window.
   void addSample(int64_t stamp_ns, const std::array<double, 3>& gyro, const std::array<double, 3>& accel = {{0, 0, 0}});
+  /// One sample of a separate accelerometer stream (a split gyro/accel pair, e.g. RealSense's accel/sample topic) at
+  /// its own stamps [ns] and rate [m/s^2]. Once one has arrived, the accelerometer is taken from this stream only
+  /// (addSample's accel is ignored) and the at-rest check reads the gyro alone.
+  void addAccel(int64_t stamp_ns, const std::array<double, 3>& accel);
   /// One temperature reading [degC] at stamp_ns; interpolated onto the samples' stamps for the model check.
   void addTemperature(int64_t stamp_ns, double celsius);
   /// A hop is due: the newest stamps are hop_s past the previous hop and the window holds min_samples.
@@ -122,6 +126,7 @@ class OnlineAnalyzer {
   OnlineCounters counters_;
   std::deque<Raw> window_;
   std::deque<std::pair<int64_t, double>> temperature_;
+  std::deque<std::pair<int64_t, std::array<double, 3>>> accel_;  ///< the separate accelerometer stream
   std::array<int64_t, 3> recent_{{0, 0, 0}};  ///< last three non-zero stamps (their median is "now")
   int recent_n_ = 0, recent_pos_ = 0;
   size_t uncounted_ = 0;                       ///< samples at the end of the window not yet in a job

@@ -16,7 +16,9 @@
 namespace gyro_allan {
 
 /// Raw input of one record, in one of two forms. Bags (compact = true): stamps t_c (ns, 0 = zero stamp), the three
-/// gyro axes and, optionally, the accelerometer (linear_acceleration, m/s^2; empty or all zero = none), held compactly.
+/// gyro axes and, optionally, the accelerometer (linear_acceleration, m/s^2; empty or all zero = none), held compactly;
+/// the accelerometer either at the gyro's stamps or, from a stream of its own (a split gyro/accel pair), at its own
+/// stamps accel_t_c (same origin as t_c).
 /// CSV (compact = false): stamps t [s] and 1..3 value columns. Temperature: stamps [s, same origin as the samples'
 /// stamps] and degC, optional. runPipeline consumes the input (frees it as it goes).
 struct PipelineInput {
@@ -24,6 +26,7 @@ struct PipelineInput {
   bool compact = true;
   CompactStamps t_c;
   std::array<CompactSeries, 3> gyro_c, accel_c;
+  CompactStamps accel_t_c;  ///< the accelerometer's own stamps [ns]; empty: it is sampled at t_c
   std::vector<double> t;
   std::vector<std::vector<double>> values;
   std::vector<double> temperature_t, temperature;
@@ -52,6 +55,8 @@ struct PipelineResult {
   std::vector<AxisAnalysis> gyro;      ///< one per gyro axis, in input order
   std::vector<AxisAnalysis> accel;     ///< accelerometer axes ("accel_x"...), empty when not analysed
   std::vector<double> accel_means;     ///< removed mean (gravity) per accelerometer axis, m/s^2
+  double accel_tau0 = 0;               ///< the accelerometer's period, s (its own with its own stamps, else tau0)
+  StampReport accel_stamps;            ///< sanitation counts of an accelerometer with its own stamps
   std::string accel_note;              ///< why the accelerometer was not analysed (not a warning), or empty
   /// Samples analysed (kept minus those left out as moving).
   int64_t analysed() const { return stamps.kept - rest_excluded; }

@@ -112,6 +112,12 @@ void OnlineAnalyzer::addSample(int64_t stamp_ns, const std::array<double, 3>& gy
   trim();
 }
 
+void OnlineAnalyzer::addAccel(int64_t stamp_ns, const std::array<double, 3>& accel) {
+  if (!options_.pipeline.accel) return;
+  accel_.emplace_back(stamp_ns, accel);
+  trim();
+}
+
 void OnlineAnalyzer::addTemperature(int64_t stamp_ns, double celsius) {
   ++counters_.temperatures;
   temperature_.emplace_back(stamp_ns, celsius);
@@ -141,6 +147,9 @@ void OnlineAnalyzer::trim() {
     }
   if (first != 0)
     while (temperature_.size() >= 2 && temperature_[1].first <= first) temperature_.pop_front();
+  // The separate accelerometer: the samples before the window's first stamp leave (zero stamps with their neighbours).
+  if (first != 0)
+    while (!accel_.empty() && (accel_.front().first == 0 || accel_.front().first < first)) accel_.pop_front();
 }
 
 bool OnlineAnalyzer::hopDue() const {
@@ -171,7 +180,8 @@ OnlineJob OnlineAnalyzer::takeJob() {
   in.compact = true;
   in.t_c.reserve(window_.size());
   for (auto& g : in.gyro_c) g.reserve(window_.size());
-  const bool accel = options_.pipeline.accel;
+  const bool split = !accel_.empty();  // the accelerometer from its own stream, at its own stamps
+  const bool accel = options_.pipeline.accel && !split;
   if (accel)
     for (auto& a : in.accel_c) a.reserve(window_.size());
   for (const Raw& r : window_) {
@@ -181,6 +191,11 @@ OnlineJob OnlineAnalyzer::takeJob() {
       if (accel) in.accel_c[k].push_back(r.a[k]);
     }
   }
+  if (split && options_.pipeline.accel)
+    for (const auto& a : accel_) {
+      in.accel_t_c.push_back(a.first == 0 ? 0 : a.first - job.origin_ns);
+      for (size_t k = 0; k < 3; ++k) in.accel_c[k].push_back(a.second[k]);
+    }
   for (const auto& tv : temperature_) {
     in.temperature_t.push_back(nsToSeconds(tv.first - job.origin_ns));
     in.temperature.push_back(tv.second);
@@ -242,6 +257,7 @@ OnlineResult OnlineAnalyzer::analyzeNow() {
 void OnlineAnalyzer::reset(bool counters) {
   window_.clear();
   temperature_.clear();
+  accel_.clear();
   recent_n_ = 0;
   recent_pos_ = 0;
   uncounted_ = 0;

@@ -147,7 +147,8 @@ namespace {
 struct PipelineRun {
   PipelineRun(PipelineInput& in, const PipelineOptions& options)
       : options(options), opt(options.analysis), so(options.sanitize), compact(in.compact), names(in.names),
-        t(in.t), values(in.values), gyro_c(in.gyro_c), accel(in.accel_c), t_c(in.t_c), temp_t(in.temperature_t),
+        t(in.t), values(in.values), gyro_c(in.gyro_c), accel(in.accel_c), t_c(in.t_c), accel_t_c(in.accel_t_c),
+        temp_t(in.temperature_t),
         temp_v(in.temperature) {}
 
   const PipelineOptions& options;
@@ -160,6 +161,7 @@ struct PipelineRun {
   std::array<CompactSeries, 3>& gyro_c;
   std::array<CompactSeries, 3>& accel;
   CompactStamps& t_c;
+  CompactStamps& accel_t_c;
   const std::vector<double>& temp_t;
   const std::vector<double>& temp_v;
 
@@ -167,6 +169,8 @@ struct PipelineRun {
   SanitizedSeries ss;
   double tau0 = 0;
   double rest_t0 = 0, rest_t1 = 0;  // the analysed stretch by stamp (for the accelerometer's own sanitation)
+  double accel_tau0 = 0;            // the accelerometer's period (its own stamps' or tau0)
+  bool accelOwnStamps0 = false;     // accelOwnStamps() before its stamps were freed
   bool accel_published = false;
   std::vector<std::vector<double>> temperature_segments;
   // Gyro axes.
@@ -195,9 +199,13 @@ struct PipelineRun {
     if (options.stage) options.stage(stage);
   }
 
+  /// Whether the accelerometer has stamps of its own (a separate stream).
+  bool accelOwnStamps() const { return !accel_t_c.empty(); }
+
   /// Whether the accelerometer is analysed if it turns out to be published: compact input with one sample per stamp.
   bool accelPresent() const {
-    return options.accel && compact && !accel[0].empty() && accel[0].size() == t_c.size();
+    return options.accel && compact && !accel[0].empty() &&
+           accel[0].size() == (accelOwnStamps() ? accel_t_c.size() : t_c.size());
   }
 
   /// Whether the accelerometer publishes anything (an IMU without one publishes zeros): any finite non-zero sample.
@@ -212,8 +220,16 @@ struct PipelineRun {
   /// publishes nothing, nor with jobs = 1 (sequential: the graph's task sanitizes it). settleAccelSanitize restricts
   /// it to the gyro's static stretch after the rest check.
   void startAccelSanitize() {
+    accelOwnStamps0 = accelOwnStamps();
     scanAccelPublished();
     if (!accelPresent() || !accel_published || options.jobs == 1) return;
+    if (accelOwnStamps()) {
+      try {
+        accel_sanitized = std::async(std::launch::async, [this] { sanitizeAccel(accel_t_c.toSeconds()); });
+      } catch (const std::system_error&) {
+      }
+      return;
+    }
     if (compact) t = t_c.toSeconds();  // one copy of the stamps for both sanitations (freed once both are done)
     try {
       accel_sanitized = std::async(std::launch::async, [this] { sanitizeAccel(t); });
@@ -236,7 +252,7 @@ struct PipelineRun {
   void settleAccelSanitize() {
     if (!accel_sanitized.valid()) return;
     accel_sanitized.get();
-    if (compact) std::vector<double>().swap(t);  // the stamps both sanitations read
+    if (compact && !accelOwnStamps()) std::vector<double>().swap(t);  // the stamps both sanitations read
     if (!accel_published) {
       sa = SanitizedSeries();
       accel_settled = true;
@@ -273,7 +289,7 @@ struct PipelineRun {
       for (auto& v : values) std::vector<double>().swap(v);
     }
     // Freed now unless the accelerometer's sanitation still reads it (then settleAccelSanitize frees it).
-    if (compact && !accel_sanitized.valid()) std::vector<double>().swap(t);
+    if (compact && (!accel_sanitized.valid() || accelOwnStamps())) std::vector<double>().swap(t);
     releaseFreed();
     profileStage("sanitize");
     meta.stamps = ss.report;
@@ -307,7 +323,8 @@ struct PipelineRun {
           if (std::isfinite(a[q])) return a[q];
         return 0.0;
       };
-      meta.rest = detectRest(static_cast<int>(n_axes), accel_published, tau0, sizes, sample);
+      // An accelerometer with stamps of its own is not sample-aligned with the gyro: the gyro alone decides.
+      meta.rest = detectRest(static_cast<int>(n_axes), accel_published && !accelOwnStamps(), tau0, sizes, sample);
       meta.rest_checked = true;
       profileStage("rest");
       if (!meta.rest.at_rest) {
@@ -423,11 +440,19 @@ struct PipelineRun {
     tasks.push_back([&] {
       try {
         if (!accel_settled) {  // jobs = 1, or the thread could not be started: sanitized here
-          sanitizeAccel(t_c.toSeconds());
+          sanitizeAccel(accelOwnStamps() ? accel_t_c.toSeconds() : t_c.toSeconds());
           restrictAccel();
         }
         t_c.clear();
+        accel_t_c.clear();
         if (!accel_sanitize_error.empty()) throw std::invalid_argument(accel_sanitize_error);
+        accel_tau0 = tau0;
+        if (accelOwnStamps0) {
+          accel_tau0 = sa.report.nominal_period_s;
+          if (sa.report.kept < 3 || !(accel_tau0 > 0))
+            throw std::invalid_argument("too few valid accelerometer samples (" + std::to_string(sa.report.kept) +
+                                        " of " + std::to_string(sa.report.input) + ")");
+        }
       } catch (const std::exception& e) {
         accel_error = e.what();
       }
@@ -445,7 +470,7 @@ struct PipelineRun {
           std::vector<std::vector<double>> segs = sa.segmentValuesOf(accel[a]);
           accel[a].clear();
           accel_means[a] = removeMean(&segs);
-          AxisStages st("accel_" + names[a], std::move(segs), tau0, ao);
+          AxisStages st("accel_" + names[a], std::move(segs), accel_tau0, ao);
           st.prepare();
           accel_results[a] = st.finish();  // joint fit only: no split or model check
           noteStaticStretch(meta, &accel_results[a]);
@@ -489,6 +514,11 @@ struct PipelineRun {
     meta.accel = std::move(accel_results);
     meta.accel_means = std::move(accel_means);
     meta.accel_note = accel_note;
+    meta.accel_tau0 = meta.accel.empty() ? 0 : accel_tau0;
+    if (!meta.accel.empty() && accelOwnStamps0) {
+      meta.accel_stamps = sa.report;
+      for (const auto& w : sa.report.warnings()) meta.warnings.push_back("accelerometer: " + w);
+    }
   }
 };
 

@@ -8,6 +8,7 @@
 #include <cerrno>
 #include <chrono>
 #include <cstdlib>
+#include <limits>
 #include <thread>
 
 #include <pluginlib/class_list_macros.hpp>
@@ -85,6 +86,9 @@ void AnalyzerNodelet::onInit() {
   sample_nh.setCallbackQueue(&sample_queue_);
   if (p_.input != "angle") imu_sub_ = sample_nh.subscribe("imu", q, &AnalyzerNodelet::imuCallback, this, hints);
   if (p_.input != "imu") angle_sub_ = sample_nh.subscribe("angle", q, &AnalyzerNodelet::angleCallback, this, hints);
+  // A separate accelerometer stream (split gyro/accel topics, RealSense's accel/sample): its linear_acceleration at its
+  // own stamps, on the samples' queue so that it interleaves with the gyro as it arrives.
+  if (p_.input != "angle") accel_sub_ = sample_nh.subscribe("accel", q, &AnalyzerNodelet::accelCallback, this, hints);
   sample_thread_ = std::thread([this] {
     while (!sample_stop_) {
       sample_queue_.callAvailable(ros::WallDuration(0.1));
@@ -102,8 +106,26 @@ void AnalyzerNodelet::onInit() {
 }
 
 void AnalyzerNodelet::imuCallback(const sensor_msgs::Imu::ConstPtr& m) {
-  addSample("imu", m->header, {{m->angular_velocity.x, m->angular_velocity.y, m->angular_velocity.z}},
-            {{m->linear_acceleration.x, m->linear_acceleration.y, m->linear_acceleration.z}});
+  // A half flagged absent (covariance[0] = -1, sensor_msgs/Imu's convention) is NaN: dropped and counted as offline.
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const bool no_gyro = m->angular_velocity_covariance[0] == -1.0, no_accel = m->linear_acceleration_covariance[0] == -1.0;
+  addSample("imu", m->header,
+            no_gyro ? std::array<double, 3>{{nan, nan, nan}}
+                    : std::array<double, 3>{{m->angular_velocity.x, m->angular_velocity.y, m->angular_velocity.z}},
+            no_accel ? std::array<double, 3>{{nan, nan, nan}}
+                     : std::array<double, 3>{{m->linear_acceleration.x, m->linear_acceleration.y, m->linear_acceleration.z}});
+}
+
+void AnalyzerNodelet::accelCallback(const sensor_msgs::Imu::ConstPtr& m) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const bool no_accel = m->linear_acceleration_covariance[0] == -1.0;
+  std::lock_guard<std::mutex> lock(mutex_);
+  ++accel_messages_;
+  if (source_ == "angle") return;
+  oa_->addAccel(static_cast<int64_t>(m->header.stamp.toNSec()),
+                no_accel ? std::array<double, 3>{{nan, nan, nan}}
+                         : std::array<double, 3>{{m->linear_acceleration.x, m->linear_acceleration.y,
+                                                  m->linear_acceleration.z}});
 }
 
 void AnalyzerNodelet::angleCallback(const geometry_msgs::Vector3Stamped::ConstPtr& m) {
@@ -380,6 +402,7 @@ DiagState AnalyzerNodelet::diagState() {
   s.last_noise_model = last_noise_model_;
   s.source = source_;
   s.other_source = other_source_;
+  s.accel_messages = accel_messages_;
   s.param_problems = param_problems_;
   s.newest_ns = oa_->newestStamp();
   s.have_quick = have_quick_;

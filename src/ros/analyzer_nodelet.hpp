@@ -34,6 +34,7 @@ class AnalyzerNodelet : public nodelet::Nodelet {
   void onInit() override;
   void imuCallback(const sensor_msgs::Imu::ConstPtr& msg);
   void angleCallback(const geometry_msgs::Vector3Stamped::ConstPtr& msg);
+  void accelCallback(const sensor_msgs::Imu::ConstPtr& msg);
   void temperatureCallback(const sensor_msgs::Temperature::ConstPtr& msg);
   /// One sample of the chosen source (the other topic's messages are counted and ignored); starts a due hop.
   void addSample(const std::string& source, const std_msgs::Header& h, const std::array<double, 3>& g,
@@ -53,7 +54,7 @@ class AnalyzerNodelet : public nodelet::Nodelet {
 
   AnalyzerParams p_;
   std::unique_ptr<OnlineAnalyzer> oa_;
-  ros::Subscriber imu_sub_, angle_sub_, temp_sub_;
+  ros::Subscriber imu_sub_, angle_sub_, accel_sub_, temp_sub_;
   ros::CallbackQueue sample_queue_;  ///< imu / angle messages, served by sample_thread_
   std::thread sample_thread_;
   std::atomic<bool> sample_stop_{false};
@@ -69,6 +70,7 @@ class AnalyzerNodelet : public nodelet::Nodelet {
   std::mutex mutex_;  ///< guards everything below and oa_
   std::string source_, frame_id_, topic_;
   uint64_t other_source_ = 0;
+  uint64_t accel_messages_ = 0;  ///< messages of the separate accelerometer topic
   std::vector<std::string> param_problems_;
   bool hwid_set_ = false;
   // worker

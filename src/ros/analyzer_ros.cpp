@@ -505,6 +505,7 @@ void diagValues(const DiagState& s, const AnalyzerParams& p, RecentProblems* rp,
                nan ? "recent samples with NaN/Inf dropped" : "values ok");
   stat.add("NaN/Inf dropped (total)", s.counters.non_finite);
   stat.add("temperature readings (total)", s.counters.temperatures);
+  stat.add("separate accelerometer messages (total)", s.accel_messages);
   if (s.have_result && s.last.ok) {
     for (const AxisAnalysis& a : s.last.result.gyro)
       if (a.spikes_checked) stat.add("spikes removed in window, axis " + a.axis, a.spikes.count);

@@ -92,6 +92,7 @@ struct DiagState {
   NoiseModel last_noise_model;     ///< the last published ~noise_model
   std::string source;              ///< "imu", "angle" or "" while waiting
   uint64_t other_source = 0;       ///< messages of the other input topic ignored
+  uint64_t accel_messages = 0;     ///< messages of the separate accelerometer topic ("accel")
   std::vector<std::string> param_problems;  ///< from loading and refused reconfigures
   int64_t newest_ns = 0;           ///< the input's newest stamp (OnlineAnalyzer::newestStamp)
   bool have_quick = false;
