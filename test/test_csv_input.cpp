@@ -160,3 +160,86 @@ TEST(CsvInput, BadGzipIsAnError) {
   }
   EXPECT_THROW(readCsvFile(d + "/missing.csv.gz"), std::runtime_error);
 }
+
+TEST(CsvInput, EurocHeaderNanosecondsAndColumnsByName) {
+  // EuRoC / TUM-VI data.csv: the header is a '#' line, the stamps are nanoseconds since the epoch (19 digits: read
+  // exactly), gyro then accelerometer by their names.
+  std::istringstream in(
+      "#timestamp [ns],w_RS_S_x [rad s^-1],w_RS_S_y [rad s^-1],w_RS_S_z [rad s^-1],a_RS_S_x [m s^-2],"
+      "a_RS_S_y [m s^-2],a_RS_S_z [m s^-2]\n"
+      "1403636579758555392,-0.0991,0.1473,0.0272,8.1477,-0.3759,-2.4026\n"
+      "1403636579763555584,-0.0991,0.1403,0.0293,8.0333,-0.4086,-2.4026\n"
+      "1403636579768555520,-0.0984,0.1278,0.0377,7.8862,-0.4250,-2.4680\n");
+  CsvOptions o;
+  o.scale = 2.0;  // applies to the gyro columns only
+  const auto s = parseCsv(in, o);
+  EXPECT_EQ(s.layout, "euroc");
+  EXPECT_EQ(s.time_unit, "ns");
+  EXPECT_EQ(s.time_unit_from, "header");
+  EXPECT_EQ(s.gyro_unit, "rad/s");
+  EXPECT_EQ(s.gyro, (std::vector<int>{0, 1, 2}));
+  EXPECT_EQ(s.accel, (std::vector<int>{3, 4, 5}));
+  EXPECT_EQ(s.t_ns, (std::vector<int64_t>{1000000000, 1005000192, 1010000128}));  // exact, first - 1 s
+  EXPECT_DOUBLE_EQ(s.columns[0][0], -0.1982);
+  EXPECT_DOUBLE_EQ(s.columns[3][0], 8.1477);
+}
+
+TEST(CsvInput, KalibrNamesAndNanosecondsByMagnitude) {
+  // Kalibr's imu0.csv (omega = rate, alpha = acceleration), no unit in the header: ns from the values alone.
+  std::istringstream in("timestamp,omega_x,omega_y,omega_z,alpha_x,alpha_y,alpha_z\n"
+                        "1385030208726607500,0.0,0.1,0.2,9.8,0.1,0.2\n"
+                        "1385030208731607500,0.0,0.1,0.2,9.8,0.1,0.2\n"
+                        "1385030208736607500,0.0,0.1,0.2,9.8,0.1,0.2\n");
+  const auto s = parseCsv(in);
+  EXPECT_EQ(s.layout, "kalibr");
+  EXPECT_EQ(s.time_unit, "ns");
+  EXPECT_EQ(s.time_unit_from, "magnitude");
+  EXPECT_EQ(s.accel, (std::vector<int>{3, 4, 5}));
+  EXPECT_EQ(s.t_ns[2] - s.t_ns[0], 10000000);
+  // Seven numeric columns without a header: time, gyro, accelerometer in that order.
+  std::istringstream bare("1385030208726607500,0.0,0.1,0.2,9.8,0.1,0.2\n1385030208731607500,0.0,0.1,0.2,9.8,0.1,0.2\n");
+  const auto b = parseCsv(bare);
+  EXPECT_EQ(b.gyro, (std::vector<int>{0, 1, 2}));
+  EXPECT_EQ(b.accel, (std::vector<int>{3, 4, 5}));
+  EXPECT_EQ(b.time_unit, "ns");
+}
+
+TEST(CsvInput, AbsurdTimeColumnsAreRefusedNamingTheUnit) {
+  auto error = [](const std::string& text, const std::string& unit = "") {
+    std::istringstream in(text);
+    CsvOptions o;
+    o.time_unit = unit;
+    try {
+      parseCsv(in, o);
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  // Microseconds and milliseconds are not guessed: the message says which unit fits.
+  EXPECT_NE(error("t,wx,wy,wz\n0,1,2,3\n5000,1,2,3\n10000,1,2,3\n").find("--time-unit us"), std::string::npos);
+  EXPECT_NE(error("t,wx,wy,wz\n0,1,2,3\n5,1,2,3\n10,1,2,3\n").find("--time-unit ms"), std::string::npos);
+  // A header that says seconds over nanosecond values: refused, not read as 2e-7 Hz.
+  EXPECT_NE(error("t [s],wx,wy,wz\n1403636579758555392,1,2,3\n1403636579763555584,1,2,3\n").find("look like nanoseconds"),
+            std::string::npos);
+  // Nanoseconds since boot are not guessed either (only epoch stamps are: a date of 2000-2100 in ns, us or ms).
+  EXPECT_NE(error("t,x\n0,1\n40000000,1\n80000000,1\n").find("look like nanoseconds (25 Hz"), std::string::npos);
+  // A rate no unit makes a sensor's.
+  EXPECT_NE(error("t,x\n0,1\n1000000000000000,1\n2000000000000000,1\n").find("not a sensor's time column"),
+            std::string::npos);
+  // Epoch milliseconds at 1 kHz: a date in ms, not 1 Hz in seconds.
+  std::istringstream ms("t,wx,wy,wz\n1700000000000,1,2,3\n1700000000001,1,2,3\n1700000000002,1,2,3\n");
+  const auto m = parseCsv(ms);
+  EXPECT_EQ(m.time_unit, "ms");
+  EXPECT_EQ(m.time_unit_from, "magnitude");
+  // The option decides: the same microseconds read as such.
+  std::istringstream us("t,wx,wy,wz\n0,1,2,3\n5000,1,2,3\n10000,1,2,3\n");
+  CsvOptions o;
+  o.time_unit = "us";
+  const auto s = parseCsv(us, o);
+  EXPECT_EQ(s.t_ns, (std::vector<int64_t>{1000000000, 1005000000, 1010000000}));
+  EXPECT_DOUBLE_EQ(s.t[1], 0.005);
+  // A time column starting at 0 keeps its first sample (no stamp is 0 in t_ns).
+  std::istringstream zero("t,wx,wy,wz\n0.0,1,2,3\n0.01,4,5,6\n0.02,4,5,6\n");
+  EXPECT_EQ(parseCsv(zero).t_ns.front(), 1000000000);
+}
