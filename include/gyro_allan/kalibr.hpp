@@ -75,4 +75,17 @@ KalibrParams kalibrParams(const std::vector<std::string>& gyro_axes,
 /// imu.yaml text in Kalibr's format, with comments naming the source of each number and any bound.
 std::string kalibrYaml(const KalibrParams& p);
 
+/// A noise-parameter file for a VIO framework, written next to imu.yaml from the same KalibrParams.
+struct FrameworkConfig {
+  std::string file;       ///< e.g. "kalibr_imu_chain.yaml"
+  std::string framework;  ///< e.g. "OpenVINS"
+  std::string text;
+};
+/// The IMU noise blocks of OpenVINS (kalibr_imu_chain.yaml), VINS-Fusion, ORB-SLAM3 and Basalt, each with its units
+/// and how the framework reads each field in comments (docs/outputs.md cites the sources). OpenVINS, ORB-SLAM3 and
+/// Basalt take the continuous-time densities of imu.yaml as they are; VINS-Fusion's pre-integration takes noise
+/// per sample, i.e. imu.yaml's values times sqrt(update_rate). A sensor without data (no accelerometer) has its
+/// fields commented out, so that a framework that needs them stops instead of running on a guess.
+std::vector<FrameworkConfig> frameworkConfigs(const KalibrParams& p);
+
 }  // namespace gyro_allan

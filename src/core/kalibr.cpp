@@ -155,4 +155,153 @@ std::string kalibrYaml(const KalibrParams& p) {
   return o.str();
 }
 
+namespace {
+
+std::string sci(double v) {
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.6e", v);
+  return buf;
+}
+
+/// The rate as ORB-SLAM3's legacy parser wants it (an integer when it is one) and as every other reads it.
+std::string rateText(double hz) {
+  char buf[40];
+  if (hz == std::floor(hz) && hz < 1e9) std::snprintf(buf, sizeof buf, "%.0f", hz);
+  else std::snprintf(buf, sizeof buf, "%.6g", hz);
+  return buf;
+}
+
+/// "# NOT SUPPORTED..." / "BAD FIT" notes of a value, for the frameworks' comments.
+std::string caveat(const KalibrParams& p, const std::string& sensor, const KalibrValue& v) {
+  std::string c;
+  if (v.bound) c += "; not supported by the data: upper end of its 68 % interval";
+  const std::string bad = badAxes(p, sensor, v);
+  if (!bad.empty()) c += "; BAD FIT on axis " + bad + ": not a measurement";
+  return c;
+}
+
+/// One "key: value  # comment" line, or the key commented out when the sensor has no data.
+void field(std::ostringstream& o, const std::string& indent, const std::string& key, const KalibrValue& v,
+           double factor, const std::string& comment, const std::string& caveat_text) {
+  if (!v.present) {
+    o << indent << "# " << key << ": not measured (no accelerometer in the data): fill in before use\n";
+    return;
+  }
+  o << indent << key << ": " << sci(v.value * factor) << "  # " << comment << caveat_text << "\n";
+}
+
+std::string header(const KalibrParams& p, const std::string& what) {
+  std::string h = "# " + what + " from gyro_allan analyze_bag (the same measurement as imu.yaml).\n";
+  if (!p.data_note.empty()) h += "# Data: " + p.data_note + "\n";
+  for (const auto& q : p.quality)
+    if (q.verdict.quality != Quality::Good)
+      h += "# Quality " + q.sensor + " " + q.axis + ": " +
+           (q.verdict.quality == Quality::Bad ? std::string("BAD") : qualityName(q.verdict.quality)) + " (" +
+           q.verdict.reason + ")\n";
+  h += "# Static-bench values: inflate deliberately (and say by how much) for a vibrating or heated platform.\n";
+  return h;
+}
+
+}  // namespace
+
+std::vector<FrameworkConfig> frameworkConfigs(const KalibrParams& p) {
+  const std::string topic = p.rostopic.empty() ? "/imu" : p.rostopic;
+  const std::string rate = rateText(p.update_rate_hz);
+  const auto& gn = p.gyroscope_noise_density;
+  const auto& gw = p.gyroscope_random_walk;
+  const auto& an = p.accelerometer_noise_density;
+  const auto& aw = p.accelerometer_random_walk;
+  std::vector<FrameworkConfig> out;
+  {
+    // OpenVINS: OpenCV FileStorage (needs %YAML:1.0); Propagator uses sigma^2 / dt (continuous densities). Tw, Ta
+    // and the two rotations identity, Tg zero: an IMU without intrinsic calibration.
+    std::ostringstream o;
+    o << "%YAML:1.0\n" << header(p, "OpenVINS IMU noise (config/<platform>/kalibr_imu_chain.yaml)")
+      << "# OpenVINS reads these as continuous-time densities (ov_msckf Propagator: sigma^2 / dt): imu.yaml's values.\n"
+      << "imu0:\n"
+      << "  T_i_b:\n    - [1.0, 0.0, 0.0, 0.0]\n    - [0.0, 1.0, 0.0, 0.0]\n    - [0.0, 0.0, 1.0, 0.0]\n"
+      << "    - [0.0, 0.0, 0.0, 1.0]\n";
+    field(o, "  ", "accelerometer_noise_density", an, 1, "[ m / s^2 / sqrt(Hz) ]", caveat(p, "accelerometer", an));
+    field(o, "  ", "accelerometer_random_walk", aw, 1, "[ m / s^3 / sqrt(Hz) ]", caveat(p, "accelerometer", aw));
+    field(o, "  ", "gyroscope_noise_density", gn, 1, "[ rad / s / sqrt(Hz) ]", caveat(p, "gyro", gn));
+    field(o, "  ", "gyroscope_random_walk", gw, 1, "[ rad / s^2 / sqrt(Hz) ]", caveat(p, "gyro", gw));
+    o << "  rostopic: " << topic << (p.rostopic.empty() ? "  # input was not a bag: set your IMU topic" : "") << "\n"
+      << "  time_offset: 0.0\n"
+      << "  update_rate: " << rate << "  # Hz\n"
+      << "  model: \"kalibr\"\n"
+      << "  Tw:\n    - [1.0, 0.0, 0.0]\n    - [0.0, 1.0, 0.0]\n    - [0.0, 0.0, 1.0]\n"
+      << "  R_IMUtoGYRO:\n    - [1.0, 0.0, 0.0]\n    - [0.0, 1.0, 0.0]\n    - [0.0, 0.0, 1.0]\n"
+      << "  Ta:\n    - [1.0, 0.0, 0.0]\n    - [0.0, 1.0, 0.0]\n    - [0.0, 0.0, 1.0]\n"
+      << "  R_IMUtoACC:\n    - [1.0, 0.0, 0.0]\n    - [0.0, 1.0, 0.0]\n    - [0.0, 0.0, 1.0]\n"
+      << "  Tg:\n    - [0.0, 0.0, 0.0]\n    - [0.0, 0.0, 0.0]\n    - [0.0, 0.0, 0.0]\n";
+    out.push_back({"kalibr_imu_chain.yaml", "OpenVINS", o.str()});
+  }
+  {
+    // VINS-Fusion: integration_base.h adds V * diag(n^2) * V' per sample with V ~ dt, i.e. n is a per-sample std:
+    // continuous density * sqrt(rate). The random walks the same way (V = dt * I).
+    const double k = std::sqrt(p.update_rate_hz);
+    char note[200];
+    std::snprintf(note, sizeof note, "x sqrt(%s Hz) = x %.4g", rate.c_str(), k);
+    std::ostringstream o;
+    o << "%YAML:1.0\n" << header(p, "VINS-Fusion IMU noise (merge into your config yaml)")
+      << "# VINS-Fusion's pre-integration (vins_estimator/src/factor/integration_base.h) takes acc_n, gyr_n as the\n"
+         "# noise of one sample and acc_w, gyr_w as the bias change per sample period (each multiplied by dt there):\n"
+         "# imu.yaml's continuous-time densities times sqrt(update_rate). Its sample config's values are hand-tuned.\n"
+      << "imu: 1\n"
+      << "imu_topic: \"" << topic << "\"" << (p.rostopic.empty() ? "  # input was not a bag: set your IMU topic" : "")
+      << "\n";
+    field(o, "", "acc_n", an, k, "m/s^2 per sample = accelerometer_noise_density [m/s^2/sqrt(Hz)] " + std::string(note),
+          caveat(p, "accelerometer", an));
+    field(o, "", "gyr_n", gn, k, "rad/s per sample = gyroscope_noise_density [rad/s/sqrt(Hz)] " + std::string(note),
+          caveat(p, "gyro", gn));
+    field(o, "", "acc_w", aw, k, "m/s^3 per sample = accelerometer_random_walk [m/s^3/sqrt(Hz)] " + std::string(note),
+          caveat(p, "accelerometer", aw));
+    field(o, "", "gyr_w", gw, k, "rad/s^2 per sample = gyroscope_random_walk [rad/s^2/sqrt(Hz)] " + std::string(note),
+          caveat(p, "gyro", gw));
+    o << "g_norm: 9.81  # m/s^2, local gravity: set yours\n";
+    out.push_back({"vins_fusion_imu.yaml", "VINS-Fusion", o.str()});
+  }
+  {
+    // ORB-SLAM3: Tracking builds IMU::Calib(Ng * sqrt(f), Na * sqrt(f), Ngw / sqrt(f), Naw / sqrt(f)) from these:
+    // continuous-time densities and the rate.
+    std::ostringstream o;
+    o << "%YAML:1.0\n" << header(p, "ORB-SLAM3 IMU noise (merge into your settings yaml)")
+      << "# ORB-SLAM3 takes continuous-time densities and discretizes them with IMU.Frequency (Tracking.cc:\n"
+         "# sf = sqrt(freq)): imu.yaml's values. Your settings file also needs IMU.T_b_c1 (File.version \"1.0\") or Tbc.\n";
+    field(o, "", "IMU.NoiseGyro", gn, 1, "rad/s/sqrt(Hz) (= rad/s^0.5)", caveat(p, "gyro", gn));
+    field(o, "", "IMU.NoiseAcc", an, 1, "m/s^2/sqrt(Hz) (= m/s^1.5)", caveat(p, "accelerometer", an));
+    field(o, "", "IMU.GyroWalk", gw, 1, "rad/s^2/sqrt(Hz) (= rad/s^1.5)", caveat(p, "gyro", gw));
+    field(o, "", "IMU.AccWalk", aw, 1, "m/s^3/sqrt(Hz) (= m/s^2.5)", caveat(p, "accelerometer", aw));
+    o << "IMU.Frequency: " << rate << "  # Hz\n";
+    out.push_back({"orb_slam3_imu.yaml", "ORB-SLAM3", o.str()});
+  }
+  {
+    // Basalt: calibration JSON (cereal), fields of "value0"; Calibration::dicrete_time_gyro_noise_std multiplies by
+    // sqrt(imu_update_rate): continuous-time densities, one per axis.
+    std::ostringstream o;
+    auto vec = [&](const KalibrValue& v) {
+      const std::string x = v.present ? sci(v.value) : "null";
+      return "[" + x + ", " + x + ", " + x + "]";
+    };
+    o << "{\n"
+      << "  \"gyro_allan\": \"Basalt IMU noise from gyro_allan analyze_bag (the same measurement as imu.yaml): merge "
+         "the fields of value0 into your calibration json. Basalt takes continuous-time densities (calibration.hpp: "
+         "dicrete_time_gyro_noise_std = gyro_noise_std * sqrt(imu_update_rate)). Units: gyro_noise_std rad/s/sqrt(Hz), "
+         "gyro_bias_std rad/s^2/sqrt(Hz), accel_noise_std m/s^2/sqrt(Hz), accel_bias_std m/s^3/sqrt(Hz), "
+         "imu_update_rate Hz."
+      << (an.present ? "" : " No accelerometer in the data: its fields are null, fill them in.")
+      << (gw.bound || aw.bound ? " A random walk not supported by the data is the upper end of its 68 % interval." : "")
+      << "\",\n"
+      << "  \"value0\": {\n"
+      << "    \"imu_update_rate\": " << rate << ",\n"
+      << "    \"accel_noise_std\": " << vec(an) << ",\n"
+      << "    \"gyro_noise_std\": " << vec(gn) << ",\n"
+      << "    \"accel_bias_std\": " << vec(aw) << ",\n"
+      << "    \"gyro_bias_std\": " << vec(gw) << "\n"
+      << "  }\n}\n";
+    out.push_back({"basalt_imu.json", "Basalt", o.str()});
+  }
+  return out;
+}
+
 }  // namespace gyro_allan
