@@ -116,10 +116,13 @@ void expectNothingLost(const YAML::Node& rep, int64_t written) {
   for (const char* ax : {"x", "y", "z"}) EXPECT_EQ(rep["axes"][ax]["samples"].as<int64_t>(), s["kept"].as<int64_t>());
 }
 
-/// A warning containing needle is on stderr and in report.yaml warnings.
+/// A warning containing needle is on stderr (a long one wrapped: continuation lines indented) and in report.yaml
+/// warnings.
 void expectWarning(const Analysed& a, const std::string& needle) {
   EXPECT_NE(a.run.err.find("warning: "), std::string::npos) << a.run.err;
-  EXPECT_NE(a.run.err.find(needle), std::string::npos) << a.run.err;
+  std::string err = a.run.err;
+  for (size_t at = err.find("\n    "); at != std::string::npos; at = err.find("\n    ", at)) err.replace(at, 5, " ");
+  EXPECT_NE(err.find(needle), std::string::npos) << a.run.err;
   bool found = false;
   for (const auto& w : a.report["warnings"]) found = found || w.as<std::string>().find(needle) != std::string::npos;
   EXPECT_TRUE(found) << needle;

@@ -53,8 +53,8 @@ TEST(CliGmwm, NoiseModelYamlFromDeclaredNoise) {
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_EQ(YAML::LoadFile(kOut + "/out/report.yaml")["method"].as<std::string>(), "gmwm");
   const YAML::Node m = YAML::LoadFile(kOut + "/out/noise_model.yaml");
-  ASSERT_TRUE(m["axes"]["wx"]) << gyro_allan_test::slurp(kOut + "/out/noise_model.yaml");
-  const YAML::Node ax = m["axes"]["wx"];
+  ASSERT_TRUE(m["axes"]["x"]) << gyro_allan_test::slurp(kOut + "/out/noise_model.yaml");
+  const YAML::Node ax = m["axes"]["x"];
   EXPECT_EQ(ax["model"].as<std::string>(), "WN+GM");
   const YAML::Node g = ax["continuous"]["gauss_markov"][0];
   const double s_hat = g["sigma"]["value"].as<double>(), tc_hat = g["correlation_time"]["value"].as<double>();
@@ -74,7 +74,7 @@ TEST(CliGmwm, NoiseModelYamlFromDeclaredNoise) {
   }
   EXPECT_GT(ax["closed_loop"]["gmwm_model"]["points"].as<int>(), 20);
   // White-only axes: no GM term survives selection (WN+RW may, with a tiny K), and bad options fail in one line.
-  EXPECT_EQ(m["axes"]["wy"]["continuous"]["gauss_markov"].size(), 0u);
+  EXPECT_EQ(m["axes"]["y"]["continuous"]["gauss_markov"].size(), 0u);
   const auto bad = run(kTools + "/analyze_bag --csv " + kOut + "/gm.csv --rate 100 --filter-rate -5 --output " + kOut +
                        "/bad --quiet");
   EXPECT_EQ(bad.code, 1);
@@ -100,7 +100,7 @@ TEST(CliGmwm, SinusoidOfTheModelCheckIsAKnownTerm) {
   ASSERT_EQ(r.code, 0) << r.err;
   const std::string text = gyro_allan_test::slurp(kOut + "/sine/noise_model.yaml");
   const YAML::Node m = YAML::Load(text);
-  const YAML::Node ax = m["axes"]["wx"];
+  const YAML::Node ax = m["axes"]["x"];
   ASSERT_TRUE(ax["known_terms"]) << text;
   const YAML::Node k = ax["known_terms"][0];
   EXPECT_EQ(k["type"].as<std::string>(), "sinusoid") << text;
@@ -116,5 +116,5 @@ TEST(CliGmwm, SinusoidOfTheModelCheckIsAKnownTerm) {
   // The line is in no state: the data-rate model has one GM state only.
   EXPECT_EQ(ax["discrete"][0]["Phi"].size(), 1u);
   // White axes: no effect, no known_terms key.
-  EXPECT_FALSE(m["axes"]["wy"]["known_terms"]) << text;
+  EXPECT_FALSE(m["axes"]["y"]["known_terms"]) << text;
 }

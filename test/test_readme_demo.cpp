@@ -1,6 +1,7 @@
 // The README's demo table is what the quick start prints: runs analyze_bag on bags/default.bag as
 // scripts/quickstart.sh does and checks that README.md holds the gyro coefficient table (header and x, y, z rows)
-// verbatim, inside a fenced code block. When the fit changes, re-run the quick start and copy its table.
+// verbatim, inside a fenced code block, and that the first screen stays readable (at most 25 lines of at most 200
+// characters, stdout and stderr together). When the fit changes, re-run the quick start and copy its table.
 #include <gtest/gtest.h>
 
 #include <cstdlib>
@@ -23,15 +24,16 @@ std::vector<std::string> lines(const std::string& s) {
   return v;
 }
 
-/// The gyro table of analyze_bag's summary: the header line ("axis  Q [arcsec] ...") and the lines after it up to
-/// the legend line "(value +- 1 sigma ...)": one row per axis, and a "BAD FIT: ..." line before a bad axis's row.
+/// The gyro table of analyze_bag's summary: the header line ("gyro  Q [arcsec] ...") and the lines after it up to
+/// the accelerometer's table ("accel ...") or the legend line "(value +- 1 sigma ...)": one row per axis.
 std::vector<std::string> gyroTable(const std::string& out) {
   const std::vector<std::string> all = lines(out);
   std::vector<std::string> table;
   for (size_t i = 0; i < all.size(); ++i) {
-    if (all[i].rfind("axis  Q [", 0) != 0) continue;
+    if (all[i].rfind("gyro  Q [", 0) != 0) continue;
     table.push_back(all[i]);
-    for (size_t j = i + 1; j < all.size() && !all[j].empty() && all[j][0] != '('; ++j) table.push_back(all[j]);
+    for (size_t j = i + 1; j < all.size() && !all[j].empty() && all[j][0] != '(' && all[j].rfind("accel", 0) != 0; ++j)
+      table.push_back(all[j]);
     break;
   }
   return table;
@@ -44,6 +46,13 @@ TEST(ReadmeDemo, TableIsWhatTheQuickStartPrints) {
   const gyro_allan_test::ToolRun r = gyro_allan_test::runTool(
       "cd '" + kSource + "' && '" + kTools + "/analyze_bag' bags/default.bag --output '" + kOut + "/out'", kOut);
   ASSERT_EQ(r.code, 0) << r.err;
+
+  // The first screen: what a 3-axis gyro + accelerometer prints, stdout and stderr together.
+  const std::vector<std::string> screen = lines(r.out + r.err);
+  EXPECT_LE(screen.size(), 25u) << r.out << r.err;
+  for (const auto& l : screen) EXPECT_LE(l.size(), 200u) << l;
+  EXPECT_NE(r.out.find("accel "), std::string::npos) << "the accelerometer's table is on the first screen:\n" << r.out;
+  EXPECT_NE(r.out.find("x: good"), std::string::npos) << "one line per axis in words:\n" << r.out;
 
   const std::vector<std::string> table = gyroTable(r.out);
   ASSERT_GE(table.size(), 4u) << "no gyro table in the output:\n" << r.out;

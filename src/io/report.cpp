@@ -355,6 +355,8 @@ YAML::Node buildReport(const ReportMeta& meta, const std::vector<AxisAnalysis>& 
   YAML::Node in;
   for (const auto& s : meta.sources) in["sources"].push_back(str(s));
   if (!meta.topic.empty()) in["topic"] = str(meta.topic);
+  if (!meta.accel_topic.empty()) in["accel_topic"] = str(meta.accel_topic);
+  if (!meta.input_note.empty()) in["note"] = str(meta.input_note);
   in["kind"] = str(meta.input);
   in["units"] = str(meta.input_units);
   r["input"] = in;
@@ -577,6 +579,7 @@ YAML::Node accelerometerNode(const std::vector<AxisAnalysis>& axes, const std::v
     if (key.rfind("accel_", 0) == 0) key = key.substr(6);
     YAML::Node n;
     n["samples"] = a.samples;
+    n["rate_hz"] = num(a.rate_hz);
     n["mean"] = num(i < means.size() ? means[i] : a.mean);
     n["mean_unit"] = str("m/s^2");
     n["method"] = str(a.method);
@@ -620,6 +623,113 @@ std::string accelSummaryTable(const std::vector<AxisAnalysis>& axes) {
     o << spikesLine(a, "VRW", accelConventionalFactor(kAngleRandomWalk), accelConventionalUnit(kAngleRandomWalk),
                     "m/s^2");
   return o.str();
+}
+
+namespace {
+
+/// A method's name in words for the first screen.
+std::string methodWords(const std::string& m) {
+  if (m == "joint_fit") return "joint fit of the five terms";
+  if (m == "wavelet_split") return "wavelet split: quantization from the sym8 residue";
+  if (m == "pulse_times") return "fit of the pulse times";
+  return m;
+}
+
+/// One effect the model check added, in a few words.
+std::string effectWords(const DetectedEffect& e) {
+  auto par = [&](const char* k) { const auto it = e.parameters.find(k); return it == e.parameters.end() ? NAN : it->second.value; };
+  char buf[120];
+  if (e.type == "sinusoid") std::snprintf(buf, sizeof buf, "a sinusoid at %.4g Hz", par("frequency_hz"));
+  else if (e.type == "narrowband") std::snprintf(buf, sizeof buf, "a narrowband oscillation near %.4g Hz", par("frequency_hz"));
+  else if (e.type == "gauss_markov") std::snprintf(buf, sizeof buf, "a Gauss-Markov term (tau_c %.3g s)", par("tau_c_s"));
+  else if (e.type == "bias_step") std::snprintf(buf, sizeof buf, "a bias step at %.4g s", par("time_s"));
+  else if (e.type == "thermal_drift") std::snprintf(buf, sizeof buf, "a thermal drift");
+  else if (e.type == "warmup") std::snprintf(buf, sizeof buf, "a warm-up drift");
+  else std::snprintf(buf, sizeof buf, "%s", e.type.c_str());
+  return buf;
+}
+
+/// The coefficient table of one sensor in conventional units, every line under 120 characters.
+std::string briefTable(const std::vector<AxisAnalysis>& axes, bool accel) {
+  std::ostringstream o;
+  static const char* gyro_names[] = {"Q", "N", "B", "K", "R"};
+  static const char* accel_names[] = {"Q", "VRW", "B", "AccRW", "R"};
+  o << std::left << std::setw(6) << (accel ? "accel" : "gyro");
+  for (int t = 0; t < kNumTerms; ++t)
+    o << std::setw(23) << (std::string(accel ? accel_names[t] : gyro_names[t]) + " [" +
+                           (accel ? accelConventionalUnit(t) : conventionalUnit(t)) + "]");
+  o << "quality\n";
+  for (const auto& a : axes) {
+    std::string axis = a.axis;
+    if (axis.rfind("accel_", 0) == 0) axis = axis.substr(6);
+    o << std::setw(6) << axis;
+    for (int t = 0; t < kNumTerms; ++t)
+      o << std::setw(23) << fmtCoef(a.coefficients[static_cast<size_t>(t)],
+                                    accel ? accelConventionalFactor(t) : conventionalFactor(t));
+    o << (a.quality.quality == Quality::Bad ? "BAD: not a measurement" : qualityName(a.quality.quality)) << "\n";
+  }
+  return o.str();
+}
+
+}  // namespace
+
+std::string axisWords(const AxisAnalysis& a) {
+  std::string w = a.axis + ": ";
+  w += a.quality.quality == Quality::Bad ? "BAD FIT, " : std::string(qualityName(a.quality.quality)) + ", ";
+  w += methodWords(a.method);
+  if (a.quality.quality != Quality::Good && !a.quality.reason.empty()) w += " (" + a.quality.reason + ")";
+  if (a.has_check) {
+    if (a.check.effects.empty()) {
+      w += "; nothing outside the IEEE model found";
+    } else {
+      w += "; added to the model: ";
+      for (size_t i = 0; i < a.check.effects.size(); ++i) w += (i ? ", " : "") + effectWords(a.check.effects[i]);
+      char buf[120];
+      std::snprintf(buf, sizeof buf, " (fit error %.3g -> %.3g)", a.check.before.rms_log10, a.check.after.rms_log10);
+      w += buf;
+    }
+  }
+  if (a.quantized.quantized) {
+    char buf[120];
+    std::snprintf(buf, sizeof buf, "; quantized output (steps of %.3g rad/s%s)", a.quantized.quantum_rate,
+                  a.quantized.sawtooth ? ", undithered" : "");
+    w += buf;
+  }
+  if (a.spikes_checked && a.spikes.count > 0) w += "; " + std::to_string(a.spikes.count) + " spikes removed";
+  return w;  // the static stretch analysed, if any, is on the input's line
+}
+
+std::string wrapLine(const std::string& line, size_t width) {
+  std::string out, rest = line;
+  size_t w = width;
+  while (rest.size() > w) {
+    size_t cut = rest.rfind(' ', w);
+    if (cut == std::string::npos || cut < w / 2) cut = w;
+    out += rest.substr(0, cut) + "\n    ";
+    rest = rest.substr(cut + (cut < rest.size() && rest[cut] == ' ' ? 1 : 0));
+    w = width - 4;  // after the indent
+  }
+  return out + rest;
+}
+
+std::string briefSummary(const std::vector<AxisAnalysis>& gyro, const std::vector<AxisAnalysis>& accel) {
+  std::string o = briefTable(gyro, false);
+  if (!accel.empty()) o += briefTable(accel, true);
+  o += "(value +- 1 sigma; v (<b): not supported by the data: fitted v, b = upper end of its 95 % interval)\n";
+  auto fit = [](const std::string& s) { return wrapLine(s, 200) + "\n"; };
+  for (const auto& a : gyro) o += fit(axisWords(a));
+  if (!accel.empty()) {
+    bool same = true;
+    for (const auto& a : accel) same = same && a.quality.quality == accel.front().quality.quality && a.notes.empty();
+    if (same) {
+      o += fit("accelerometer: " + std::string(accel.front().quality.quality == Quality::Bad ? "BAD FIT"
+                                                                                           : qualityName(accel.front().quality.quality)) +
+               " on every axis, " + methodWords(accel.front().method) + " (no model check on the accelerometer)");
+    } else {
+      for (const auto& a : accel) o += fit(axisWords(a));
+    }
+  }
+  return o;
 }
 
 void writeFileAtomic(const std::string& path, const std::string& content) {
@@ -682,6 +792,7 @@ void writeAnalysisFiles(const std::string& dir, const ReportMeta& meta, const Pi
     kp.data_note = rest_off_note;
   }
   writeFileAtomic(dir + "/imu.yaml", kalibrYaml(kp));
+  for (const FrameworkConfig& f : frameworkConfigs(kp)) writeFileAtomic(dir + "/" + f.file, f.text);
   if (format == "json") writeFileAtomic(dir + "/report.json", toJson(report));
   else writeFileAtomic(dir + "/report.yaml", toYaml(report));
 }

@@ -51,7 +51,8 @@ constexpr int kExitAnalysis = 3;  // data present but not analysable (too short.
 constexpr int kExitOutput = 4;    // cannot write the output
 constexpr int kExitBatchFailed = 5;  // --batch: at least one bag failed (its row in summary.csv says why)
 
-const char* kUsage = R"(usage: analyze_bag BAG [BAG...] [options]
+const char* kUsage = R"(usage: analyze_bag BAG [BAG...] [options]        ROS 1 .bag files, or one ROS 2 recording
+                                                    (rosbag2 folder, .mcap or .db3 files)
        analyze_bag BAG [BAG...] --angle-topic T [--angle-mode accumulated|increment] [options]
        analyze_bag --csv FILE [--rate HZ] [options]
        analyze_bag --batch DIR [options]
@@ -60,19 +61,27 @@ Gyro noise analysis of a sensor at rest: Allan deviations with confidence interv
 coefficients Q, N, B, K, R per axis, with 68 % / 95 % intervals and a quality verdict.
 
 Input
-  BAG...                 rosbags with a sensor_msgs/Imu topic (several bags of one recording are stitched)
-  --topic T              sensor_msgs/Imu topic (default: the only one)
+  BAG...                 bags with a sensor_msgs/Imu topic: ROS 1 .bag files (several of one recording are
+                         stitched), or a ROS 2 recording: a rosbag2 folder (metadata.yaml; sqlite3 or mcap
+                         storage, zstd FILE/MESSAGE compression) or its .mcap / .db3 files, read without ROS 2
+  --topic T              sensor_msgs/Imu topic (default: the only one, or the gyro of a gyro/accel pair)
+  --accel-topic T        the accelerometer from its own sensor_msgs/Imu topic at its own rate (RealSense
+                         /camera/accel/sample; found by itself when the only two Imu topics are such a pair)
   --angle-topic T        read angles instead: geometry_msgs/Vector3Stamped, angle per axis [rad]
   --angle-mode M         accumulated (default) or increment (angle per sample); --angle-topic, --input angle
   --temperature-topic T  sensor_msgs/Temperature topic for the model check (default: the only one; '-' = none)
   --bag-time             use the bag receive time instead of header.stamp
   --start S              skip the first S seconds (default 0)
   --duration S           analyse at most S seconds (default: all)
-  --csv FILE             CSV (header t,wx,wy,wz, time optional) or one column per axis; .gz accepted
+  --csv FILE             CSV (header t,wx,wy,wz, time optional) or one column per axis; .gz accepted; EuRoC /
+                         TUM-VI data.csv and Kalibr imu0.csv (ns stamps, gyro, accelerometer) recognised
+  --time-unit U          the CSV time column's unit: s, ms, us, ns (default: its header's, else s, or ns
+                         when the values can only be nanosecond stamps)
   --rate HZ              sample rate (required for a CSV without a time column; default: from the stamps)
   --units U              CSV units: rad/s (default) or deg/s; rad or deg with --input angle
   --input K              CSV content: rate (default) or angle
-  --batch DIR            every DIR/*.bag on its own into OUTPUT/<bag>/, plus OUTPUT/summary.csv
+  --batch DIR            every DIR/*.bag, *.mcap, *.db3 and rosbag2 folder on its own into OUTPUT/<name>/,
+                         plus OUTPUT/summary.csv
 
 Analysis
   --method M             auto (default) | joint_fit | wavelet_split | gmwm (auto + DIR/noise_model.yaml)
@@ -91,10 +100,12 @@ Analysis
   -j, --jobs N           threads (default: one per core; 1 = sequential; same results)
 
 Output
-  -o, --output DIR       output folder (default ./allan_out): report.yaml, allan.csv, imu.yaml, allan.png/svg
+  -o, --output DIR       output folder (default ./allan_out): report.yaml, allan.csv, allan.png/svg, imu.yaml
+                         (Kalibr) and the IMU blocks of OpenVINS, VINS-Fusion, ORB-SLAM3 and Basalt
   --format F             yaml (default) or json report
   --kalibr-axis R        imu.yaml: worst (default: the largest axis) or mean (quadratic mean of the axes)
   --no-plot              no allan.png/allan.svg (also GYRO_ALLAN_NO_PLOT=1)
+  -v, --verbose          print every statistic (fit errors, model-check tests) and warning in full
   -q, --quiet            print nothing but errors
   -h, --help             this text
 
@@ -106,13 +117,13 @@ Details: README.md; the files and fields: docs/outputs.md; methods: docs/ (fit.m
 
 struct Args {
   std::vector<std::string> bags;
-  std::string topic, angle_topic, angle_mode = "accumulated", temperature_topic, csv, output = "allan_out", units, input = "rate", format = "yaml";
+  std::string topic, angle_topic, accel_topic, time_unit, angle_mode = "accumulated", temperature_topic, csv, output = "allan_out", units, input = "rate", format = "yaml";
   std::string tau_grid = "log:10", deviations = "oadev", method = "auto";
   std::string batch, kalibr_axis = "worst";
   bool accel = true, plot = true;
   double rate = 0, confidence = 0.683, gap_factor = 1.5, start = 0, duration = 0;
   int jobs = 0;  // 0 = one per core
-  bool bag_time = false, quiet = false, wavelet_split = true, model_check = true, keep_spikes = false;
+  bool bag_time = false, quiet = false, verbose = false, wavelet_split = true, model_check = true, keep_spikes = false;
   bool rest_check = true;
   double filter_rate = 0;  // GMWM (#16): --filter-rate HZ
 };
@@ -141,6 +152,8 @@ Args parseArgs(int argc, char** argv) {
       std::exit(kExitOk);
     } else if (s == "--topic") a.topic = value();
     else if (s == "--angle-topic") a.angle_topic = value();
+    else if (s == "--accel-topic") a.accel_topic = value();
+    else if (s == "--time-unit") a.time_unit = value();
     else if (s == "--angle-mode") a.angle_mode = value();
     else if (s == "--temperature-topic") a.temperature_topic = value();
     else if (s == "--output" || s == "-o") a.output = value();
@@ -178,6 +191,7 @@ Args parseArgs(int argc, char** argv) {
       a.jobs = static_cast<int>(j);
     }
     else if (s == "--quiet" || s == "-q") a.quiet = true;
+    else if (s == "--verbose" || s == "-v") a.verbose = true;
     else if (!s.empty() && s[0] == '-') throw UsageError("unknown option " + s + " (see --help)");
     else a.bags.push_back(s);
   }
@@ -191,6 +205,11 @@ Args parseArgs(int argc, char** argv) {
     throw UsageError("--angle-mode must be accumulated or increment");
   if (!a.angle_topic.empty() && !a.topic.empty()) throw UsageError("give --topic or --angle-topic, not both");
   if (!a.angle_topic.empty() && !a.csv.empty()) throw UsageError("--angle-topic is for bags; CSV angles: --input angle");
+  if (!a.accel_topic.empty() && !a.csv.empty()) throw UsageError("--accel-topic is for bags");
+  if (!a.accel_topic.empty() && !a.angle_topic.empty()) throw UsageError("--accel-topic is for IMU topics, not --angle-topic");
+  if (!a.time_unit.empty() && a.time_unit != "s" && a.time_unit != "ms" && a.time_unit != "us" && a.time_unit != "ns")
+    throw UsageError("--time-unit must be s, ms, us or ns");
+  if (!a.time_unit.empty() && a.csv.empty()) throw UsageError("--time-unit is for CSV input");
   if (a.format != "yaml" && a.format != "json") throw UsageError("--format must be yaml or json");
   if (a.rate < 0) throw UsageError("--rate must be > 0");
   if (!(a.confidence > 0 && a.confidence < 1)) throw UsageError("--confidence must be in (0, 1)");
@@ -244,6 +263,35 @@ std::string inputSummary(const ReportMeta& meta) {
   return out;
 }
 
+/// The first screen's opening line: input, rate, span, and the state of its stamps and motion in a few words.
+std::string briefInput(const ReportMeta& meta, const PipelineResult& pr, int64_t analysed, double tau0) {
+  char buf[300];
+  const double span = static_cast<double>(analysed) * tau0;
+  std::snprintf(buf, sizeof buf, "%s%s%s: %lld samples at %.6g Hz, %.1f %s", meta.sources.front().c_str(),
+                meta.sources.size() > 1 ? (" (+" + std::to_string(meta.sources.size() - 1) + ")").c_str() : "",
+                meta.topic.empty() ? "" : (" " + meta.topic).c_str(), static_cast<long long>(analysed), 1.0 / tau0,
+                span >= 7200 ? span / 3600 : span >= 120 ? span / 60 : span, span >= 7200 ? "h" : span >= 120 ? "min" : "s");
+  std::string s = buf;
+  if (!meta.accel_topic.empty() && pr.accel_tau0 > 0) {
+    std::snprintf(buf, sizeof buf, "; accelerometer from %s at %.6g Hz", meta.accel_topic.c_str(), 1.0 / pr.accel_tau0);
+    s += buf;
+  }
+  const StampReport& st = meta.stamps;
+  if (st.receipt_stamps) s += "; arrival-time stamps put back on the sampler's grid";
+  if (st.gaps > 0) s += "; " + std::to_string(st.gaps) + " gaps";
+  const int64_t dropped = st.non_finite + st.zero_stamp + st.out_of_order + st.duplicate + st.too_close + st.short_segment;
+  if (dropped > 0) s += "; " + std::to_string(dropped) + " samples dropped";
+  if (meta.rest_checked) {
+    if (meta.rest.at_rest) s += "; at rest";
+    else {
+      std::snprintf(buf, sizeof buf, "; MOVED: only %.1f-%.1f s analysed", meta.rest_from_s, meta.rest_to_s);
+      s += buf;
+    }
+  }
+  if (!meta.input_note.empty()) s += "; " + meta.input_note;
+  return s;
+}
+
 /// GYRO_ALLAN_PROFILE=1: one stderr line per stage with wall and CPU time since start, resident and peak memory (for
 /// bench/whole_tool.sh and docs/performance.md).
 void profileStage(const char* stage) {
@@ -273,6 +321,20 @@ void profileStage(const char* stage) {
 #ifdef __GLIBC__
   if (std::getenv("GYRO_ALLAN_PROFILE_MALLOC")) malloc_stats();
 #endif
+}
+
+/// A topic whose angular velocity is never published (all zero, or flagged absent by covariance[0] = -1) is not a gyro:
+/// one line saying so, and how to read a split gyro/accel pair.
+void checkGyroPublished(const ImuSeries& s) {
+  bool any = false;
+  for (const auto& axis : s.gyro)
+    for (size_t i = 0; i < axis.size() && !any; ++i) any = axis[i] != 0 && std::isfinite(axis[i]);
+  if (any || s.gyro[0].empty()) return;
+  const bool flagged = s.gyro_flagged == static_cast<int64_t>(s.gyro[0].size());
+  throw InputError("topic '" + s.topic + "' carries no angular velocity (" +
+                   (flagged ? "angular_velocity_covariance[0] = -1" : "all zero") +
+                   " in every message): an accelerometer stream? give the gyro's topic with --topic and this one "
+                   "with --accel-topic");
 }
 
 int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
@@ -307,6 +369,7 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
   // --filter-rate implies --method gmwm (--help), and the nodelet's ~save writes gmwm for auto + GMWM: the same here.
   meta.method = (opt.gmwm && args.method == "auto") ? "gmwm" : args.method;
   std::vector<double> temp_t, temp_v;  // temperature series (bags with a sensor_msgs/Temperature topic)
+  std::string accel_flag_note;          // the accelerometer flagged absent in every message
   // Bags: samples and stamps held compactly (4 bytes each) until sanitized; accel = linear_acceleration, m/s^2.
   std::array<CompactSeries, 3> gyro_c, accel;
   CompactStamps t_c;
@@ -319,11 +382,14 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
   std::vector<std::string> names;
   std::vector<double> t;
   std::vector<std::vector<double>> values;
+  CompactStamps accel_t_c;  // a separate accelerometer stream's own stamps (bags with --accel-topic)
+  std::string input_note;   // how the input was read, when it was not what the user said (printed, in report.yaml)
   if (!args.csv.empty()) {
     CsvOptions co;
     const std::string u = args.units.empty() ? (args.input == "angle" ? "rad" : "rad/s") : args.units;
     if (u == "deg/s" || u == "deg") co.scale = M_PI / 180.0;
     else if (u != "rad/s" && u != "rad") throw UsageError("--units must be rad/s or deg/s (rad or deg for angles)");
+    co.time_unit = args.time_unit;
     meta.input_units = u;
     CsvSeries cs;
     try {
@@ -332,16 +398,60 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
       throw InputError(args.csv + ": " + e.what());
     }
     meta.sources.push_back(args.csv);
-    names = cs.names;
-    values = cs.columns;
-    if (!cs.t.empty()) {
-      t = cs.t;
+    if (!cs.gyro_unit.empty() && !angle_input) {  // the header says the unit
+      if (!args.units.empty() && args.units != cs.gyro_unit)
+        throw UsageError("--units " + args.units + " contradicts the CSV header's gyro unit " + cs.gyro_unit);
+      if (args.units.empty() && cs.gyro_unit == "deg/s")
+        for (int c : cs.gyro)
+          for (double& v : cs.columns[static_cast<size_t>(c)]) v *= M_PI / 180.0;
+      meta.input_units = cs.gyro_unit;
+    }
+    if (cs.time_unit_from == "magnitude")
+      input_note = "time column read as " +
+                   std::string(cs.time_unit == "ns" ? "nanoseconds" : cs.time_unit == "us" ? "microseconds" : "milliseconds") +
+                   " (epoch stamps)";
+    if (!cs.t.empty() && cs.gyro.size() == 3) {
+      // Gyroscope (and accelerometer) columns known by name: read as a bag's samples are, at exact stamps.
+      std::vector<std::string> unused;
+      std::vector<bool> used(cs.columns.size(), false);
+      for (int c : cs.gyro) used[static_cast<size_t>(c)] = true;
+      for (int c : cs.accel) used[static_cast<size_t>(c)] = true;
+      for (size_t c = 0; c < cs.columns.size(); ++c)
+        if (!used[c]) unused.push_back(cs.names[c]);
+      if (!unused.empty() && !args.quiet) {
+        std::string list;
+        for (const auto& n : unused) list += (list.empty() ? "" : ", ") + n;
+        std::cerr << "analyze_bag: warning: CSV columns not analysed: " << list << "\n";
+      }
+      names = {"x", "y", "z"};
+      t_c.reserve(cs.t_ns.size());
+      for (int64_t ns : cs.t_ns) t_c.push_back(ns);
+      for (size_t k = 0; k < 3; ++k) {
+        for (double v : cs.columns[static_cast<size_t>(cs.gyro[k])]) gyro_c[k].push_back(v);
+        if (args.accel && cs.accel.size() == 3)
+          for (double v : cs.columns[static_cast<size_t>(cs.accel[k])]) accel[k].push_back(v);
+      }
+      t = t_c.toSeconds();
+      compact = true;
       if (args.rate > 0) so.nominal_rate_hz = args.rate;
     } else {
-      if (!(args.rate > 0)) throw UsageError("--rate HZ is required for a CSV without a time column");
-      t.resize(static_cast<size_t>(cs.rows));
-      for (size_t i = 0; i < t.size(); ++i) t[i] = (static_cast<double>(i) + 1.0) / args.rate;
-      so.nominal_rate_hz = args.rate;
+      names = cs.names;
+      values = cs.columns;
+      if (cs.gyro.size() == 3) {  // gyro columns known by name: the axes x, y, z, as from a bag
+        names = {"x", "y", "z"};
+        values.clear();
+        for (int c : cs.gyro) values.push_back(cs.columns[static_cast<size_t>(c)]);
+      }
+      if (!cs.t.empty()) {
+        t.resize(cs.t_ns.size());  // seconds since (the first stamp - 1 s), exactly as the file gives them
+        for (size_t i = 0; i < t.size(); ++i) t[i] = 1e-9 * static_cast<double>(cs.t_ns[i]);
+        if (args.rate > 0) so.nominal_rate_hz = args.rate;
+      } else {
+        if (!(args.rate > 0)) throw UsageError("--rate HZ is required for a CSV without a time column");
+        t.resize(static_cast<size_t>(cs.rows));
+        for (size_t i = 0; i < t.size(); ++i) t[i] = (static_cast<double>(i) + 1.0) / args.rate;
+        so.nominal_rate_hz = args.rate;
+      }
     }
   } else {
     if (args.input == "angle")
@@ -349,6 +459,7 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
     BagReadOptions bo;
     bo.topic = args.topic;
     bo.angle_topic = args.angle_topic;
+    bo.accel_topic = args.accel_topic;
     if (angle_input) meta.input_units = "rad";
     bo.temperature_topic = args.temperature_topic;
     bo.use_bag_time = args.bag_time;
@@ -361,13 +472,24 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
     profileStage("read");
     meta.sources = s.bags;
     meta.topic = s.topic;
+    meta.accel_topic = s.accel_topic;
+    if (!s.accel_topic.empty() && args.accel_topic.empty())
+      input_note = "gyro from " + s.topic + ", accelerometer from " + s.accel_topic + " (a split gyro/accel pair)";
+    checkGyroPublished(s);
     names = {"x", "y", "z"};
     t_c = std::move(s.t);
-    t = t_c.toSeconds();
     gyro_c = std::move(s.gyro);
     compact = true;
     temp_t = std::move(s.temperature_t);
-    if (args.accel) accel = std::move(s.accel);
+    if (args.accel) {
+      if (s.accel_flagged > 0 && s.accel_flagged == static_cast<int64_t>(s.accel[0].size())) {
+        accel_flag_note = "accelerometer: linear_acceleration_covariance[0] = -1 in every message (not published): "
+                          "not analysed";
+      } else {
+        accel = std::move(s.accel);
+        accel_t_c = std::move(s.accel_t);
+      }
+    }
     temp_v = std::move(s.temperature);
     if (args.rate > 0) so.nominal_rate_hz = args.rate;
   }
@@ -376,6 +498,7 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
     values.resize(3);
     names.resize(3);
   }
+  meta.input_note = input_note;
   PipelineInput in;
   in.compact = compact;
   in.names = std::move(names);
@@ -384,6 +507,7 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
   in.t_c = std::move(t_c);
   in.gyro_c = std::move(gyro_c);
   in.accel_c = std::move(accel);
+  in.accel_t_c = std::move(accel_t_c);
   in.temperature_t = std::move(temp_t);
   in.temperature = std::move(temp_v);
   PipelineOptions po;
@@ -394,14 +518,23 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
   po.jobs = args.jobs;
   po.stage = profileStage;
   PipelineResult pr = runPipeline(std::move(in), po);
+  if (pr.accel_note.empty()) pr.accel_note = accel_flag_note;
   const double tau0 = pr.tau0;
   setPipelineMeta(pr, &meta);
   const std::vector<AxisAnalysis>& results = pr.gyro;
   const std::vector<AxisAnalysis>& accel_results = pr.accel;
   const std::string& accel_note = pr.accel_note;
-  for (const auto& w : meta.warnings)
-    if (!args.quiet) std::cerr << "analyze_bag: warning: " << w << "\n";
-
+  // Warnings on stderr, each in full: with --verbose on one line; else wrapped at 200 characters (continuation lines
+  // indented), at most 6 of them (report.yaml has them all).
+  size_t shown = 0;
+  for (const auto& w : meta.warnings) {
+    if (args.quiet) break;
+    if (!args.verbose && ++shown > 6) {
+      std::cerr << "analyze_bag: warning: " << meta.warnings.size() - 6 << " more warnings in report.yaml\n";
+      break;
+    }
+    std::cerr << (args.verbose ? "analyze_bag: warning: " + w : wrapLine("analyze_bag: warning: " + w, 200)) << "\n";
+  }
   try {
     makeDir(args.output);
     writeAnalysisFiles(args.output, meta, pr, args.format, parseKalibrAxisRule(args.kalibr_axis),
@@ -423,17 +556,24 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
   }
   if (!args.quiet) {
     const int64_t analysed = pr.analysed();
-    std::printf("%s%s: %lld samples, %.6g Hz, %.1f s, tau grid %s\n", meta.sources.front().c_str(),
-                meta.topic.empty() ? "" : (" " + meta.topic).c_str(), static_cast<long long>(analysed), 1.0 / tau0,
-                static_cast<double>(analysed) * tau0, meta.tau_grid.c_str());
-    std::printf("%s", inputSummary(meta).c_str());
-    std::printf("%s", summaryTable(results).c_str());
-    if (!accel_results.empty()) std::printf("%s", accelSummaryTable(accel_results).c_str());
+    if (args.verbose) {
+      std::printf("%s%s: %lld samples, %.6g Hz, %.1f s, tau grid %s\n", meta.sources.front().c_str(),
+                  meta.topic.empty() ? "" : (" " + meta.topic).c_str(), static_cast<long long>(analysed), 1.0 / tau0,
+                  static_cast<double>(analysed) * tau0, meta.tau_grid.c_str());
+      if (!meta.input_note.empty()) std::printf("input: %s\n", meta.input_note.c_str());
+      std::printf("%s", inputSummary(meta).c_str());
+      std::printf("%s", summaryTable(results).c_str());
+      if (!accel_results.empty()) std::printf("%s", accelSummaryTable(accel_results).c_str());
+    } else {
+      std::printf("%s\n", briefInput(meta, pr, analysed, tau0).c_str());
+      std::printf("%s", briefSummary(results, accel_results).c_str());
+    }
     if (opt.gmwm) std::printf("%swrote %s/noise_model.yaml\n", gmwmSummary(results).c_str(), args.output.c_str());
     if (!accel_note.empty()) std::printf("%s\n", accel_note.c_str());
-    std::printf("wrote %s/report.%s, %s/allan.csv, %s/imu.yaml (Kalibr)%s\n", args.output.c_str(),
-                args.format.c_str(), args.output.c_str(), args.output.c_str(),
-                !plot ? "" : plot_note.empty() ? (" and " + args.output + "/allan.png, allan.svg").c_str() : "");
+    std::printf("wrote %s/: report.%s, allan.csv%s\n", args.output.c_str(), args.format.c_str(),
+                !plot ? "" : plot_note.empty() ? ", allan.png, allan.svg" : "");
+    std::printf("IMU noise for Kalibr imu.yaml, OpenVINS kalibr_imu_chain.yaml, VINS-Fusion vins_fusion_imu.yaml, "
+                "ORB-SLAM3 orb_slam3_imu.yaml, Basalt basalt_imu.json\n");
   }
   if (gyro_out) *gyro_out = results;
   if (accel_out) *accel_out = accel_results;
@@ -455,13 +595,24 @@ int runBatch(const Args& args) {
   std::vector<std::string> bags;
   DIR* d = opendir(args.batch.c_str());
   if (!d) throw InputError("--batch: cannot open folder '" + args.batch + "'");
+  auto endsWith = [](const std::string& n, const char* e) {
+    const size_t k = std::strlen(e);
+    return n.size() > k && n.compare(n.size() - k, k, e) == 0;
+  };
   while (dirent* e = readdir(d)) {
     const std::string n = e->d_name;
-    if (n.size() > 4 && n.compare(n.size() - 4, 4, ".bag") == 0) bags.push_back(n);
+    if (n == "." || n == "..") continue;
+    struct stat st {};
+    const std::string path = args.batch + "/" + n;
+    const bool dir = stat(path.c_str(), &st) == 0 && S_ISDIR(st.st_mode);
+    // ROS 1 bags, ROS 2 storage files, and rosbag2 folders (with metadata.yaml), each analysed on its own.
+    if (dir ? stat((path + "/metadata.yaml").c_str(), &st) == 0
+            : endsWith(n, ".bag") || endsWith(n, ".mcap") || endsWith(n, ".db3"))
+      bags.push_back(n);
   }
   closedir(d);
   std::sort(bags.begin(), bags.end());
-  if (bags.empty()) throw InputError("--batch: no *.bag in '" + args.batch + "'");
+  if (bags.empty()) throw InputError("--batch: no *.bag, *.mcap, *.db3 or rosbag2 folder in '" + args.batch + "'");
   try {
     makeDir(args.output);
   } catch (const std::exception& e) {
@@ -476,7 +627,13 @@ int runBatch(const Args& args) {
     Args sub = args;
     sub.batch.clear();
     sub.bags = {args.batch + "/" + name};
-    sub.output = args.output + "/" + name.substr(0, name.size() - 4);
+    auto stem = [](const std::string& n) {
+      const size_t dot = n.rfind('.');
+      return dot == std::string::npos || dot == 0 ? n : n.substr(0, dot);
+    };
+    size_t same = 0;  // a.bag beside a.mcap: each keeps its whole name
+    for (const auto& other : bags) same += stem(other) == stem(name);
+    sub.output = args.output + "/" + (same > 1 ? name : stem(name));
     std::vector<AxisAnalysis> gyro, accel;
     std::string error;
     int code = kExitOk;

@@ -18,6 +18,8 @@ namespace gyro_allan {
 struct ReportMeta {
   std::vector<std::string> sources;  ///< bag or CSV paths
   std::string topic;                 ///< IMU topic (empty for CSV)
+  std::string accel_topic;           ///< a separate accelerometer topic (split gyro/accel streams), or empty
+  std::string input_note;            ///< how the input was read where the user did not say (e.g. ns stamps), or empty
   std::string input = "rate";        ///< rate | angle
   std::string input_units = "rad/s";
   std::string tau_grid;
@@ -50,13 +52,21 @@ std::string summaryTable(const std::vector<AxisAnalysis>& axes);
 /// report.yaml `accelerometer:` section: per axis (axis names "accel_x" -> "x") the five terms in accelerometer
 /// units; `means` = the removed mean (gravity) per axis [m/s^2].
 YAML::Node accelerometerNode(const std::vector<AxisAnalysis>& axes, const std::vector<double>& means);
+/// The first screen (analyze_bag without --verbose): the coefficient table of the gyro (and accelerometer) in
+/// conventional units, then one line per axis in words (verdict and its reason, method, effects added, quantized
+/// output, spikes), wrapped at 200 characters.
+std::string briefSummary(const std::vector<AxisAnalysis>& gyro, const std::vector<AxisAnalysis>& accel);
+/// One axis in words, as briefSummary prints it.
+std::string axisWords(const AxisAnalysis& a);
+/// A line wrapped at spaces into lines of at most `width` characters, the continuation lines indented by 4.
+std::string wrapLine(const std::string& line, size_t width);
 /// Summary lines of the accelerometer in conventional units (m/s/sqrt(h), ug, m/s/h/sqrt(h)).
 std::string accelSummaryTable(const std::vector<AxisAnalysis>& axes);
 /// Copies a pipeline result's stamp report, warnings and at-rest decision into meta.
 void setPipelineMeta(const PipelineResult& r, ReportMeta* meta);
 /// The files of one analysis, as analyze_bag writes them: DIR/report.yaml (format "yaml") or DIR/report.json
-/// ("json"), DIR/allan.csv (gyro, then accelerometer rows) and DIR/imu.yaml (Kalibr, `rule` across axes). DIR must
-/// exist. rest_off_note: imu.yaml's data note for rate input analysed without the at-rest check. Throws
+/// ("json"), DIR/allan.csv (gyro, then accelerometer rows), DIR/imu.yaml (Kalibr, `rule` across axes) and beside it
+/// the IMU blocks of OpenVINS, VINS-Fusion, ORB-SLAM3 and Basalt (kalibr.hpp frameworkConfigs). DIR must exist. rest_off_note: imu.yaml's data note for rate input analysed without the at-rest check. Throws
 /// std::runtime_error naming the file that cannot be written.
 void writeAnalysisFiles(const std::string& dir, const ReportMeta& meta, const PipelineResult& r,
                         const std::string& format, KalibrAxisRule rule, bool rate_input,
