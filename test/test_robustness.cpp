@@ -1,4 +1,4 @@
-// Core-level bad inputs (issue 8): sanitize, analyzeAxis, parseCsv and the wavelet transforms either work or throw
+// Core-level bad inputs (issue 8): sanitize, analyzeAxis, parseCsv, the wavelet transforms and the ROS 2 readers either work or throw
 // std::invalid_argument, stamp counts always add up, and every input the fuzzers kept (fuzz/corpus, fuzz/regressions)
 // is replayed through the fuzz targets' own checks.
 #include <gtest/gtest.h>
@@ -27,6 +27,9 @@
 #undef LLVMFuzzerTestOneInput
 #define LLVMFuzzerTestOneInput fuzzWaveletOne
 #include "../fuzz/fuzz_wavelet.cpp"
+#undef LLVMFuzzerTestOneInput
+#define LLVMFuzzerTestOneInput fuzzRos2One
+#include "../fuzz/fuzz_ros2.cpp"
 #undef LLVMFuzzerTestOneInput
 
 namespace {
@@ -234,5 +237,6 @@ void replay(const std::string& target, int (*one)(const uint8_t*, size_t)) {
 TEST(FuzzRegressions, Csv) { replay("csv", fuzzCsvOne); }
 TEST(FuzzRegressions, Analysis) { replay("analysis", fuzzAnalysisOne); }
 TEST(FuzzRegressions, Wavelet) { replay("wavelet", fuzzWaveletOne); }
+TEST(FuzzRegressions, Ros2) { replay("ros2", fuzzRos2One); }
 
 }  // namespace
