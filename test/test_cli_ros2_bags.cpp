@@ -17,6 +17,9 @@
 #include <sensor_msgs/Temperature.h>
 #include <yaml-cpp/yaml.h>
 
+#include <zlib.h>
+
+#include "../src/rosbag2/crc32.hpp"
 #include "cli_util.hpp"
 #include "gyro_allan/io/bag_input.hpp"
 #include "gyro_allan/rosbag2/cdr.hpp"
@@ -340,7 +343,9 @@ TEST_F(Ros2Bags, OtherToolsBagsAreReadOrRefusedInOneLine) {
     const ToolRun r = run(kTools + "/analyze_bag " + kShared + "/" + f.path + " --no-plot --output " + kOut + "/fx");
     if (f.imu) {
       EXPECT_TRUE(r.code == 0 || r.code == 3) << r.code << ": " << r.err;
-      if (r.code == 3) EXPECT_EQ(gyro_allan_test::countLines(r.err), 1) << r.err;
+      if (r.code == 3) {
+        EXPECT_EQ(gyro_allan_test::countLines(r.err), 1) << r.err;
+      }
     } else {
       expectOneLineError(r, 2, "no sensor_msgs/Imu topic", f.path);
     }
@@ -479,8 +484,9 @@ TEST_F(Ros2Bags, EurocCsvAndSplitRealSenseStreams) {
 
 TEST_F(Ros2Bags, FrameworkConfigsCarryImuYamlsValues) {
   const std::string out = kOut + "/out_ref";  // from EveryStorageVariantGivesTheRos1Answer, or made here
-  if (!std::ifstream(out + "/imu.yaml"))
+  if (!std::ifstream(out + "/imu.yaml")) {
     ASSERT_EQ(run(kTools + "/analyze_bag " + kOut + "/ref.bag --no-plot --quiet --output " + out).code, 0);
+  }
   const YAML::Node k = YAML::LoadFile(out + "/imu.yaml");
   auto load = [&](const std::string& file) {
     std::string text = slurp(out + "/" + file);
@@ -537,6 +543,20 @@ TEST_F(Ros2Bags, BatchReadsRos1AndRos2BagsSideBySide) {
   const std::string csv = slurp(kOut + "/batch_out/summary.csv");
   for (const char* name : {"a.bag,gyro,x,ok", "b_folder,gyro,x,ok", "c.mcap,gyro,x,ok"})
     EXPECT_NE(csv.find(name), std::string::npos) << name << "\n" << csv;
+}
+
+TEST(Crc32, FoldedCrcIsZlibsOnEveryLengthAndAlignment) {
+  std::vector<uint8_t> b(1 << 16);
+  uint32_t x = 12345;
+  for (auto& v : b) v = static_cast<uint8_t>((x = x * 1664525u + 1013904223u) >> 24);
+  for (size_t n = 0; n < 700; ++n)
+    for (size_t off : {0, 1, 7, 13}) {
+      const uint32_t want = static_cast<uint32_t>(crc32(0, b.data() + off, static_cast<uInt>(n)));
+      ASSERT_EQ(rosbag2::crc32Update(0, b.data() + off, n), want) << n << " at " << off;
+    }
+  // Extending a running CRC, as the summary CRC does over two pieces.
+  const uint32_t whole = static_cast<uint32_t>(crc32(0, b.data(), static_cast<uInt>(b.size())));
+  EXPECT_EQ(rosbag2::crc32Update(rosbag2::crc32Update(0, b.data(), 1000), b.data() + 1000, b.size() - 1000), whole);
 }
 
 }  // namespace

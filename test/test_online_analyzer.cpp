@@ -359,3 +359,59 @@ TEST(OnlineAnalyzer, StampGlitchLeavesTheWindowLikeAnySample) {
   EXPECT_EQ(r.result.stamps.out_of_order, 0);
   EXPECT_NEAR(static_cast<double>(r.result.analysed()), 3001.0, 1.0);
 }
+
+TEST(OnlineAnalyzer, SeparateAccelerometerStreamAtItsOwnRate) {
+  // A split gyro/accel driver (RealSense): the gyro at 200 Hz through addSample (its accelerometer half zero), the
+  // accelerometer at 125 Hz through addAccel. The window's answer is the offline pipeline's with the accelerometer at
+  // its own stamps, to the bit, and the accelerometer's N is the declared one at its own rate.
+  const double n_acc = 2e-3;
+  SimulationSpec spec;
+  spec.rate_hz = 200;
+  spec.duration_s = 600;
+  spec.seed = 4;
+  for (auto& ax : spec.axes) ax.angle_random_walk = 1e-4;
+  const SimulatedData d = simulate(spec);
+  const int64_t na = 600 * 125;
+  std::array<std::vector<double>, 3> acc;
+  for (int k = 0; k < 3; ++k) {
+    AxisNoise an;
+    an.angle_random_walk = n_acc;
+    an.bias = k == 2 ? 9.81 : 0.0;
+    acc[static_cast<size_t>(k)] = simulateAxis(an, 125, na, 99, k);
+  }
+  PipelineOptions po;
+  po.jobs = 2;
+  po.analysis.model_check = false;
+  po.analysis.wavelet_split = false;
+  OnlineOptions oo;
+  oo.pipeline = po;
+  oo.window_s = 1e6;
+  oo.hop_s = 1e6;
+  OnlineAnalyzer oa(oo);
+  PipelineInput in;
+  const int64_t origin = kStart - 1000000000LL;
+  size_t j = 0;
+  for (size_t i = 0; i < d.t.size(); ++i) {
+    const int64_t ns = kStart + static_cast<int64_t>(i) * 5000000LL;  // 5 ms
+    for (; j < static_cast<size_t>(na) && kStart + static_cast<int64_t>(j) * 8000000LL <= ns; ++j) {  // 8 ms
+      const int64_t ans = kStart + static_cast<int64_t>(j) * 8000000LL;
+      oa.addAccel(ans, {{acc[0][j], acc[1][j], acc[2][j]}});
+      in.accel_t_c.push_back(ans - origin);
+      for (size_t k = 0; k < 3; ++k) in.accel_c[k].push_back(acc[k][j]);
+    }
+    oa.addSample(ns, {{d.rate[0][i], d.rate[1][i], d.rate[2][i]}});
+    in.t_c.push_back(ns - origin);
+    for (size_t k = 0; k < 3; ++k) in.gyro_c[k].push_back(d.rate[k][i]);
+  }
+  const PipelineResult offline = runPipeline(std::move(in), po);
+  const OnlineResult on = oa.analyzeNow();
+  ASSERT_TRUE(on.ok) << on.error;
+  expectSameResult(offline, on.result);
+  ASSERT_EQ(on.result.accel.size(), 3u);
+  EXPECT_NEAR(on.result.accel_tau0, 1.0 / 125, 1e-9);
+  EXPECT_NEAR(on.result.tau0, 1.0 / 200, 1e-9);
+  for (const auto& a : on.result.accel) {
+    EXPECT_NEAR(a.rate_hz, 125, 1e-6);
+    EXPECT_NEAR(a.coefficients[kAngleRandomWalk].value / n_acc, 1.0, 0.05) << a.axis;
+  }
+}

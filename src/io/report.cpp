@@ -645,6 +645,8 @@ std::string effectWords(const DetectedEffect& e) {
   else if (e.type == "bias_step") std::snprintf(buf, sizeof buf, "a bias step at %.4g s", par("time_s"));
   else if (e.type == "thermal_drift") std::snprintf(buf, sizeof buf, "a thermal drift");
   else if (e.type == "warmup") std::snprintf(buf, sizeof buf, "a warm-up drift");
+  else if (e.type == "short_correlation") std::snprintf(buf, sizeof buf, "noise correlated over a few samples (a filter)");
+  else if (e.type == "outliers") std::snprintf(buf, sizeof buf, "outliers");
   else std::snprintf(buf, sizeof buf, "%s", e.type.c_str());
   return buf;
 }
@@ -689,13 +691,15 @@ std::string axisWords(const AxisAnalysis& a) {
       w += buf;
     }
   }
+  const bool accel = a.axis.rfind("accel_", 0) == 0;
   if (a.quantized.quantized) {
     char buf[120];
-    std::snprintf(buf, sizeof buf, "; quantized output (steps of %.3g rad/s%s)", a.quantized.quantum_rate,
-                  a.quantized.sawtooth ? ", undithered" : "");
+    std::snprintf(buf, sizeof buf, "; quantized output (steps of %.3g %s%s)", a.quantized.quantum_rate,
+                  accel ? "m/s^2" : "rad/s", a.quantized.sawtooth ? ", undithered" : "");
     w += buf;
   }
-  if (a.spikes_checked && a.spikes.count > 0) w += "; " + std::to_string(a.spikes.count) + " spikes removed";
+  if (a.spikes_checked && a.spikes.count > 0)
+    w += "; " + std::to_string(a.spikes.count) + (a.spikes.count == 1 ? " spike" : " spikes") + " removed";
   return w;  // the static stretch analysed, if any, is on the input's line
 }
 

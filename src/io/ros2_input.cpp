@@ -14,7 +14,13 @@ namespace {
 
 /// builtin_interfaces/Time as ros::Time; a time ROS 1 cannot hold (negative seconds) is a zero (invalid) stamp.
 ros::Time rosTime(const cdr::Header& h) {
-  if (h.sec < 0) return ros::Time();
+  ros::Time t;
+  if (h.sec < 0) return t;
+  if (h.nanosec < 1000000000u) {  // the normal case, without ros::Time's normalization
+    t.sec = static_cast<uint32_t>(h.sec);
+    t.nsec = h.nanosec;
+    return t;
+  }
   return ros::Time(static_cast<uint32_t>(h.sec), 0) + ros::Duration(0, static_cast<int32_t>(h.nanosec % 1000000000u)) +
          ros::Duration(static_cast<int32_t>(h.nanosec / 1000000000u), 0);
 }
@@ -77,16 +83,17 @@ ImuSeries readRos2Bags(const std::vector<std::string>& paths, const BagReadOptio
     if (!choice.accel_topic.empty()) wanted.insert(choice.accel_topic);
     const bool show = options.progress && isatty(fileno(stderr));
     int64_t seen = 0;
+    const bool has_temp = !choice.temperature.empty(), has_accel = !choice.accel_topic.empty();
     bag.read(wanted, [&](const std::string& topic, int64_t recv_ns, const uint8_t* data, size_t size) {
       const ros::Time rec = recvTime(recv_ns);
       try {
-        if (topic == choice.temperature) {
+        if (has_temp && topic == choice.temperature) {
           cdr::decode(data, size, &ct);  // a temperature that does not decode is skipped, as in ROS 1 bags
           temp_abs.push_back(options.use_bag_time ? rec : rosTime(ct.header));
           s.temperature.push_back(ct.temperature);
           return;
         }
-        if (topic == choice.accel_topic) {
+        if (has_accel && topic == choice.accel_topic) {
           cdr::decode(data, size, &ci);
           toRos1(ci, &imu);
           app.addAccel(rec, imu);

@@ -2,6 +2,7 @@
 // (DDS-XTypes 1.3, 7.4.2 XCDR1 and 7.4.3 XCDR2; encapsulation identifiers in cdr.hpp).
 #include "gyro_allan/rosbag2/cdr.hpp"
 
+#include <algorithm>
 #include <cstdio>
 #include <cstring>
 #include <utility>
@@ -37,12 +38,7 @@ Layout layoutOf(const uint8_t* data, size_t size) {
   return l;
 }
 
-bool hostLittle() {
-  const uint16_t one = 1;
-  uint8_t b;
-  std::memcpy(&b, &one, 1);
-  return b == 1;
-}
+constexpr bool hostLittle() { return __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__; }
 
 class Reader {
  public:
@@ -80,18 +76,35 @@ class Reader {
     prim(&v, 8);
     return v;
   }
-  std::string str() {
+  void str(std::string* s) {
     const uint32_t len = u32();
     if (len > n_ - pos_) fail("string length " + std::to_string(len) + " beyond the message");
     size_t k = len;
     if (k > 0 && p_[pos_ + k - 1] == 0) --k;  // the terminating NUL
-    std::string s(reinterpret_cast<const char*>(p_ + pos_), k);
+    s->assign(reinterpret_cast<const char*>(p_ + pos_), k);  // into the caller's string: no allocation per message
     pos_ += len;
-    return s;
   }
   template <size_t K>
   void f64s(std::array<double, K>* a) {
     for (auto& x : *a) x = f64();
+  }
+  /// No DHEADERs: consecutive doubles, nested structs included, lie back to back (each stays aligned).
+  bool plain() const { return !l_.delimited; }
+  /// `count` consecutive doubles (the fast path of plain encodings: one bounds check, one copy).
+  void f64block(double* out, size_t count) {
+    const size_t a = l_.max_align < 8 ? l_.max_align : 8;
+    const size_t at = (pos_ + a - 1) / a * a;
+    if (at > n_ || 8 * count > n_ - at) {
+      pos_ = at > n_ ? n_ : at;
+      fail("message truncated");
+    }
+    std::memcpy(out, p_ + at, 8 * count);
+    if (l_.little != hostLittle())
+      for (size_t i = 0; i < count; ++i) {
+        uint8_t* b = reinterpret_cast<uint8_t*>(out + i);
+        for (size_t k = 0; k < 4; ++k) std::swap(b[k], b[7 - k]);
+      }
+    pos_ = at + 8 * count;
   }
   void header(Header* h) {
     structure([&] {
@@ -99,7 +112,7 @@ class Reader {
         h->sec = i32();
         h->nanosec = u32();
       });
-      h->frame_id = str();
+      str(&h->frame_id);
     });
   }
   /// A nested struct of K doubles (Quaternion, Vector3).
@@ -119,11 +132,13 @@ class Reader {
       pos_ = at > n_ ? n_ : at;
       fail("message truncated");
     }
-    uint8_t b[8];
-    std::memcpy(b, p_ + at, k);
-    if (l_.little != hostLittle())
-      for (size_t i = 0; i < k / 2; ++i) std::swap(b[i], b[k - 1 - i]);
-    std::memcpy(out, b, k);
+    if (l_.little == hostLittle()) {
+      std::memcpy(out, p_ + at, k);
+    } else {
+      uint8_t b[8];
+      for (size_t i = 0; i < k; ++i) b[i] = p_[at + k - 1 - i];
+      std::memcpy(out, b, k);
+    }
     pos_ = at + k;
   }
   const uint8_t* p_;
@@ -210,6 +225,18 @@ void decode(const uint8_t* data, size_t size, Imu* m) {
   Reader r(data, size);
   r.structure([&] {
     r.header(&m->header);
+    if (r.plain()) {  // the 37 doubles after the header in one copy
+      double v[37];
+      r.f64block(v, 37);
+      const double* p = v;
+      std::copy(p, p + 4, m->orientation.begin()), p += 4;
+      std::copy(p, p + 9, m->orientation_covariance.begin()), p += 9;
+      std::copy(p, p + 3, m->angular_velocity.begin()), p += 3;
+      std::copy(p, p + 9, m->angular_velocity_covariance.begin()), p += 9;
+      std::copy(p, p + 3, m->linear_acceleration.begin()), p += 3;
+      std::copy(p, p + 9, m->linear_acceleration_covariance.begin());
+      return;
+    }
     r.doubles(&m->orientation);
     r.f64s(&m->orientation_covariance);
     r.doubles(&m->angular_velocity);

@@ -11,20 +11,26 @@
 //     has no summary), Chunk headers, and runs of Message records outside chunks.
 // Chunks (and runs) are read in order of their earliest log time; the messages of those whose time ranges overlap
 // are merged, so the output is in log-time order with ties in file order, while memory holds only the chunks
-// being merged (usually one). Each chunk's uncompressed_crc is checked when not 0.
+// being merged (usually one), decompressed and CRC-checked a few chunks ahead on a second thread. Each chunk's
+// uncompressed_crc is checked when not 0.
 #include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <condition_variable>
 #include <cstring>
+#include <deque>
+#include <exception>
 #include <map>
 #include <memory>
+#include <mutex>
+#include <thread>
 
 #include <lz4frame.h>
-#include <zlib.h>
 #include <zstd.h>
 
+#include "crc32.hpp"
 #include "gyro_allan/rosbag2/storage.hpp"
 
 namespace gyro_allan {
@@ -171,6 +177,96 @@ struct Loaded {
   size_t order = 0;  // the unit's rank, for ties between units
 };
 
+/// Loads units 0, 1, ... (decompresses, CRC-checks and indexes them) on a thread of its own, at most kAhead ahead of
+/// the caller's take(k), handed over in order: the two halves of reading a chunk, about equal in cost, overlap. A
+/// load's exception is rethrown by the take of that unit; the destructor stops and joins.
+class Prefetch {
+ public:
+  using LoadFn = std::function<void(size_t, Loaded*)>;
+  Prefetch(size_t n, LoadFn load) : n_(n), load_(std::move(load)) {
+    try {
+      if (n > 0) threads_.emplace_back([this] { run(); });
+    } catch (...) {  // no thread to be had: the caller loads each unit itself
+      stopAndJoin();
+      threads_.clear();
+    }
+  }
+  ~Prefetch() { stopAndJoin(); }
+  Prefetch(const Prefetch&) = delete;
+  Prefetch& operator=(const Prefetch&) = delete;
+  /// A buffer the caller is done with, for a later unit (a reused buffer is not zeroed and faulted in again).
+  void recycle(std::vector<uint8_t>&& buf) {
+    std::lock_guard<std::mutex> lock(m_);
+    if (spare_.size() < kAhead + 2) spare_.push_back(std::move(buf));
+  }
+  std::unique_ptr<Loaded> take(size_t k) {
+    if (threads_.empty()) {
+      auto l = std::make_unique<Loaded>();
+      load_(k, l.get());
+      return l;
+    }
+    std::unique_lock<std::mutex> lock(m_);
+    cv_.wait(lock, [&] { return ready_.count(k) > 0; });
+    Slot s = std::move(ready_[k]);
+    ready_.erase(k);
+    taken_ = k + 1;
+    cv_.notify_all();
+    if (s.error) std::rethrow_exception(s.error);
+    return std::move(s.unit);
+  }
+
+ private:
+  static constexpr size_t kAhead = 4;
+  struct Slot {
+    std::unique_ptr<Loaded> unit;
+    std::exception_ptr error;
+  };
+  void stopAndJoin() {
+    {
+      std::lock_guard<std::mutex> lock(m_);
+      stop_ = true;
+    }
+    cv_.notify_all();
+    for (auto& t : threads_)
+      if (t.joinable()) t.join();
+  }
+  void run() {
+    for (;;) {
+      Slot s;
+      size_t k;
+      {
+        std::unique_lock<std::mutex> lock(m_);
+        cv_.wait(lock, [&] { return stop_ || failed_ || next_ >= n_ || next_ < taken_ + kAhead; });
+        if (stop_ || failed_ || next_ >= n_) return;
+        k = next_++;
+        s.unit = std::make_unique<Loaded>();
+        if (!spare_.empty()) {
+          s.unit->buf.swap(spare_.back());
+          spare_.pop_back();
+        }
+      }
+      try {
+        load_(k, s.unit.get());
+      } catch (...) {
+        s.error = std::current_exception();
+      }
+      std::lock_guard<std::mutex> lock(m_);
+      if (s.error) failed_ = true;  // nothing after a failed unit is wanted
+      ready_[k] = std::move(s);
+      cv_.notify_all();
+    }
+  }
+  size_t n_;
+  LoadFn load_;
+  std::mutex m_;
+  std::condition_variable cv_;
+  std::map<size_t, Slot> ready_;
+  std::vector<std::vector<uint8_t>> spare_;
+  size_t next_ = 0, taken_ = 0;
+  bool stop_ = false, failed_ = false;
+  std::vector<std::thread> threads_;  // last: started once every other member exists
+};
+
 class McapStorage : public Storage {
  public:
   explicit McapStorage(const std::string& path) : file_(path) {
@@ -241,37 +337,53 @@ class McapStorage : public Storage {
       order.push_back(&u);
     }
     std::stable_sort(order.begin(), order.end(), [](const Unit* a, const Unit* b) { return a->start < b->start; });
-    std::map<uint16_t, uint64_t> delivered;
     std::vector<std::unique_ptr<Loaded>> open;
-    auto emitBefore = [&](int64_t limit, bool all) {
-      for (;;) {
-        Loaded* best = nullptr;
-        for (auto& l : open) {
-          if (l->next >= l->msgs.size()) continue;
-          const Pending& p = l->msgs[l->next];
-          if (!all && p.t >= limit) continue;
-          if (!best || p.t < best->msgs[best->next].t) best = l.get();  // ties: the earlier unit (open is in rank order)
-        }
-        if (!best) break;
-        const Pending& p = best->msgs[best->next++];
-        StoredMessage m;
-        m.topic = channels_.at(p.channel).topic_index;
-        m.recv_ns = p.t;
-        m.data = best->buf.data() + p.at;
-        m.size = p.size;
-        ++delivered[p.channel];
-        f(m);
-        open.erase(std::remove_if(open.begin(), open.end(),
-                                  [](const std::unique_ptr<Loaded>& l) { return l->next >= l->msgs.size(); }),
-                   open.end());
-      }
+    std::function<void(std::vector<uint8_t>&&)> recycle;  // set once the prefetcher exists
+    std::vector<size_t> topic_of(65536, 0);
+    for (const auto& kv : channels_) topic_of[kv.first] = kv.second.topic_index;
+    std::vector<uint64_t> delivered(65536, 0);
+    auto emit = [&](const Loaded& l, const Pending& p) {
+      StoredMessage m;
+      m.topic = topic_of[p.channel];
+      m.recv_ns = p.t;
+      m.data = l.buf.data() + p.at;
+      m.size = p.size;
+      ++delivered[p.channel];
+      f(m);
     };
+    // Passes on, in log-time order, every message of the open units earlier than `limit` (all of them: `all`).
+    auto emitBefore = [&](int64_t limit, bool all) {
+      if (open.size() == 1) {  // the usual case: chunks that do not overlap
+        Loaded& l = *open.front();
+        while (l.next < l.msgs.size() && (all || l.msgs[l.next].t < limit)) emit(l, l.msgs[l.next++]);
+      } else {
+        for (;;) {
+          Loaded* best = nullptr;
+          for (auto& l : open) {
+            if (l->next >= l->msgs.size()) continue;
+            const Pending& p = l->msgs[l->next];
+            if (!all && p.t >= limit) continue;
+            if (!best || p.t < best->msgs[best->next].t) best = l.get();  // ties: the earlier unit (open is in rank order)
+          }
+          if (!best) break;
+          emit(*best, best->msgs[best->next++]);
+        }
+      }
+      for (auto& l : open)
+        if (l->next >= l->msgs.size() && recycle) recycle(std::move(l->buf));
+      open.erase(std::remove_if(open.begin(), open.end(),
+                                [](const std::unique_ptr<Loaded>& l) { return l->next >= l->msgs.size(); }),
+                 open.end());
+    };
+    // The units are decompressed, CRC-checked and indexed on a second thread, a few ahead of the merge here.
+    Prefetch ahead(order.size(), [&](size_t k, Loaded* l) { load(*order[k], want_channel, l); });
+    recycle = [&](std::vector<uint8_t>&& b) { ahead.recycle(std::move(b)); };
     for (size_t k = 0; k < order.size(); ++k) {
       emitBefore(order[k]->start, false);
-      auto l = std::make_unique<Loaded>();
+      std::unique_ptr<Loaded> l = ahead.take(k);
       l->order = k;
-      load(*order[k], want_channel, l.get());
       if (!l->msgs.empty()) open.push_back(std::move(l));
+      else ahead.recycle(std::move(l->buf));
     }
     emitBefore(0, true);
     if (have_stats_ && !stats_counts_.empty())
@@ -345,10 +457,9 @@ class McapStorage : public Storage {
     const uint64_t summary_end = summary_offset_start ? summary_offset_start : footer_at;
     std::vector<uint8_t> s = content(summary_start, footer_at - summary_start);
     if (summary_crc != 0) {
-      uLong crc = crc32(0L, Z_NULL, 0);
-      crc = crc32(crc, s.data(), static_cast<uInt>(s.size()));
-      crc = crc32(crc, tail, 1 + 8 + 8 + 8);  // the footer up to and including summary_offset_start
-      if (static_cast<uint32_t>(crc) != summary_crc) damaged("summary CRC mismatch");
+      uint32_t crc = crc32Update(0, s.data(), s.size());
+      crc = crc32Update(crc, tail, 1 + 8 + 8 + 8);  // the footer up to and including summary_offset_start
+      if (crc != summary_crc) damaged("summary CRC mismatch");
     }
     have_summary_ = true;
     size_t chunk_indexes = 0;
@@ -526,13 +637,19 @@ class McapStorage : public Storage {
   /// A unit's records, decompressed and CRC-checked.
   void decompress(const Unit& u, std::vector<uint8_t>* out) const {
     if (u.uncompressed > kMaxChunk) damaged("a chunk of " + std::to_string(u.uncompressed) + " bytes");
-    std::vector<uint8_t> in = content(u.offset, u.length);
+    if (u.length > kMaxChunk) damaged("a record of " + std::to_string(u.length) + " bytes");
+    // The compressed bytes in a buffer kept per thread: resized, not zeroed and page-faulted afresh per chunk.
+    thread_local std::vector<uint8_t> in;
+    in.resize(static_cast<size_t>(u.length));
+    file_.read(u.offset, in.size(), in.data());
     if (!u.chunk || u.compression.empty()) {
       if (u.chunk && in.size() != u.uncompressed) damaged("uncompressed chunk size mismatch");
       out->swap(in);
     } else if (u.compression == "zstd") {
       out->resize(static_cast<size_t>(u.uncompressed));
-      const size_t got = ZSTD_decompress(out->data(), out->size(), in.data(), in.size());
+      thread_local std::unique_ptr<ZSTD_DCtx, size_t (*)(ZSTD_DCtx*)> ctx(ZSTD_createDCtx(), ZSTD_freeDCtx);
+      const size_t got = ctx ? ZSTD_decompressDCtx(ctx.get(), out->data(), out->size(), in.data(), in.size())
+                             : ZSTD_decompress(out->data(), out->size(), in.data(), in.size());
       if (ZSTD_isError(got) || got != u.uncompressed)
         damaged(std::string("zstd chunk does not decompress") +
                 (ZSTD_isError(got) ? std::string(": ") + ZSTD_getErrorName(got) : std::string(" to its size")));
@@ -558,11 +675,7 @@ class McapStorage : public Storage {
       throw FormatError(path_ + ": MCAP chunk compression '" + u.compression +
                         "' is not supported (zstd, lz4 or none)");
     }
-    if (u.chunk && u.crc != 0) {
-      uLong crc = crc32(0L, Z_NULL, 0);
-      crc = crc32(crc, out->data(), static_cast<uInt>(out->size()));
-      if (static_cast<uint32_t>(crc) != u.crc) damaged("chunk CRC mismatch");
-    }
+    if (u.chunk && u.crc != 0 && crc32Update(0, out->data(), out->size()) != u.crc) damaged("chunk CRC mismatch");
   }
 
   /// A unit decompressed, its wanted messages listed in log-time order.

@@ -22,7 +22,7 @@
 
 #include <lz4frame.h>
 #include <sqlite3.h>
-#include <zlib.h>
+#include "crc32.hpp"
 #include <zstd.h>
 
 namespace gyro_allan {
@@ -103,7 +103,7 @@ enum Op : uint8_t {
 const char kMagic[8] = {'\x89', 'M', 'C', 'A', 'P', '0', '\r', '\n'};
 
 uint32_t crc32Of(uint32_t crc, const void* p, size_t n) {
-  return static_cast<uint32_t>(::crc32_z(crc, static_cast<const Bytef*>(p), n));
+  return crc32Update(crc, static_cast<const uint8_t*>(p), n);
 }
 
 }  // namespace
