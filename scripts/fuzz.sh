@@ -44,7 +44,7 @@ for t in "${TARGETS[@]}"; do
   $CXX "${FLAGS[@]}" -fsanitize=fuzzer "fuzz/fuzz_$t.cpp" "${objs[@]}" -lyaml-cpp -lsqlite3 -lzstd -llz4 -lz -lpthread \
       -o "$bin"
   work="$OUT/corpus_$t"  # grows here; fuzz/corpus/<target>/ is the small seed corpus kept in git
-  mkdir -p "$work" "fuzz/crashers/$t"
+  mkdir -p "$work" "fuzz/crashers/$t" "fuzz/regressions/$t"  # libFuzzer stops on a missing corpus folder
   echo "fuzz: running $t for ${SECS}s" >&2
   maxlen=4096
   [ "$t" = ros2 ] && maxlen=65536  # storage files: a .db3 is several 4 KiB pages

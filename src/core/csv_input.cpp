@@ -189,6 +189,9 @@ bool parseDecimalE9(const std::string& s, __int128* out) {
   } else {
     for (int k = 0; k < -exp && mant != 0; ++k) mant = (mant + (k == -exp - 1 ? 5 : 0)) / 10;
   }
+  // Beyond 1e19 in any unit no value is a time (epoch nanoseconds are 1.7e18): refused, so that converting the
+  // others to nanoseconds (* 1e9) stays inside 128 bits.
+  if (mant > static_cast<__int128>(10000000000000000000ULL) * 1000000000) return false;
   *out = neg ? -mant : mant;
   return true;
 }
