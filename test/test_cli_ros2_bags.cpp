@@ -13,6 +13,7 @@
 
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
+#include <geometry_msgs/Vector3Stamped.h>
 #include <sensor_msgs/Imu.h>
 #include <sensor_msgs/Temperature.h>
 #include <yaml-cpp/yaml.h>
@@ -270,6 +271,17 @@ TEST_F(Ros2Bags, EveryStorageVariantGivesTheRos1Answer) {
     v->compression_mode = "MESSAGE";
   }
   {
+    Variant* v = add("mcap_folder_v3");  // the oldest metadata.yaml with compression fields
+    v->metadata_version = 3;
+    v->mcap.compression = "lz4";
+  }
+  {
+    Variant* v = add("db3_folder_v7");
+    v->storage = "sqlite3";
+    v->db_schema = 4;
+    v->metadata_version = 7;
+  }
+  {
     Variant* v = add("db3_folder_v4");
     v->storage = "sqlite3";
     v->db_schema = 2;
@@ -324,6 +336,44 @@ TEST_F(Ros2Bags, EveryStorageVariantGivesTheRos1Answer) {
   EXPECT_NE(scan.out.find("/imu"), std::string::npos) << scan.out;
   EXPECT_NE(scan.out.find("sensor_msgs/msg/Imu"), std::string::npos) << scan.out;
   EXPECT_NE(scan.out.find("zstd"), std::string::npos) << scan.out;
+}
+
+TEST_F(Ros2Bags, AngleTopicReadsAsFromARos1Bag) {
+  // geometry_msgs/msg/Vector3Stamped angles (an RLG's accumulated pulses) in DELIMITED_CDR2: the samples of the
+  // same messages in a ROS 1 bag.
+  const std::string r1 = kOut + "/angle.bag", r2 = kOut + "/angle.mcap";
+  {
+    rosbag::Bag bag(r1, rosbag::bagmode::Write);
+    rosbag2::McapWriter w(r2);
+    const int id = w.addTopic({"/angle", "geometry_msgs/msg/Vector3Stamped",
+                               cdr::definition("geometry_msgs/msg/Vector3Stamped")});
+    geometry_msgs::Vector3Stamped m;
+    m.header.frame_id = "rlg";
+    cdr::Vector3Stamped c;
+    c.header.frame_id = "rlg";
+    double th = 0;
+    for (int i = 0; i < 3000; ++i) {
+      th += 1.7e-6 * ((i * 7919) % 5 - 2);
+      m.header.stamp = ros::Time(1700000000, 0) + ros::Duration(0.0025 * i);
+      m.vector.x = th;
+      m.vector.y = -2 * th;
+      m.vector.z = 1e-3 + th;
+      bag.write("/angle", m.header.stamp, m);
+      c.header.sec = static_cast<int32_t>(m.header.stamp.sec);
+      c.header.nanosec = m.header.stamp.nsec;
+      c.vector = {{m.vector.x, m.vector.y, m.vector.z}};
+      w.write(id, static_cast<int64_t>(m.header.stamp.toNSec()), cdr::encode(c, cdr::Kind::Xcdr2Delimited, false));
+    }
+    w.close();
+  }
+  BagReadOptions o;
+  o.angle_topic = "/angle";
+  const ImuSeries a = readImuBags({r1}, o), b = readImuBags({r2}, o);
+  EXPECT_EQ(b.reader, "rosbag2");
+  EXPECT_EQ(b.t.toNanoseconds(), a.t.toNanoseconds());
+  for (size_t k = 0; k < 3; ++k) EXPECT_EQ(b.gyro[k].toVector(), a.gyro[k].toVector());
+  EXPECT_TRUE(b.accel[0].empty());
+  EXPECT_EQ(b.frame_id, "rlg");
 }
 
 TEST_F(Ros2Bags, OtherToolsBagsAreReadOrRefusedInOneLine) {
