@@ -34,16 +34,13 @@ struct CsvOptions {
   std::string time_unit;
 };
 
-/// The sampling rate and span a time column implies must be a sensor's: 1 Hz to 100 kHz, at most a year. Throws
-/// std::invalid_argument with one line naming the likely unit mistake otherwise. `t_ns` as in CsvSeries.
-void checkTimeColumn(const std::vector<int64_t>& t_ns, const std::string& unit, const std::string& unit_from);
 
 /// Parses CSV text. The first non-comment line is a header when it does not parse as numbers (a '#' line before the
 /// data is the header when it names several columns, as in EuRoC's "#timestamp [ns],w_RS_S_x [rad s^-1],..."); a
 /// header column named t, time, timestamp, stamp (with an optional unit: t_s, timestamp [ns]...) is the time
 /// column. Separators: comma, semicolon, tab or spaces. Throws std::invalid_argument with "line N: ..." on a
-/// malformed row (wrong column count, not a number), and on a time column whose implied rate or span is absurd
-/// (checkTimeColumn).
+/// malformed row (wrong column count, not a number), and on a time column whose implied rate or span is not a
+/// sensor's (1 Hz to 100 kHz, at most a year), naming the unit it would fit.
 CsvSeries parseCsv(std::istream& in, const CsvOptions& options = {});
 /// Reads a file (a path ending in .gz is decompressed with zlib). Throws std::runtime_error if unreadable or, for
 /// .gz, not a complete gzip file.

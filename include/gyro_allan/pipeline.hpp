@@ -56,7 +56,6 @@ struct PipelineResult {
   std::vector<AxisAnalysis> accel;     ///< accelerometer axes ("accel_x"...), empty when not analysed
   std::vector<double> accel_means;     ///< removed mean (gravity) per accelerometer axis, m/s^2
   double accel_tau0 = 0;               ///< the accelerometer's period, s (its own with its own stamps, else tau0)
-  StampReport accel_stamps;            ///< sanitation counts of an accelerometer with its own stamps
   std::string accel_note;              ///< why the accelerometer was not analysed (not a warning), or empty
   /// Samples analysed (kept minus those left out as moving).
   int64_t analysed() const { return stamps.kept - rest_excluded; }

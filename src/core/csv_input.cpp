@@ -259,17 +259,6 @@ std::string describeUnit(const std::string& u) {
 
 }  // namespace
 
-void checkTimeColumn(const std::vector<int64_t>& t_ns, const std::string& unit, const std::string& unit_from) {
-  if (t_ns.size() < 2) return;
-  std::vector<__int128> raw;
-  raw.reserve(t_ns.size());
-  const int64_t per = unitNs(unit);
-  for (int64_t v : t_ns) raw.push_back(static_cast<__int128>(v) * 1000000000 / per);
-  double rate, span;
-  implied(raw, unit, &rate, &span);
-  if (rate > 0 && !plausible(rate, span)) absurdTime(raw, unit, unit_from);
-}
-
 CsvSeries parseCsv(std::istream& in, const CsvOptions& options) {
   if (!std::isfinite(options.scale) || options.scale == 0) throw std::invalid_argument("csv: scale must be finite and non-zero");
   if (!options.time_unit.empty() && options.time_unit != "s" && options.time_unit != "ms" && options.time_unit != "us" &&

@@ -515,10 +515,8 @@ struct PipelineRun {
     meta.accel_means = std::move(accel_means);
     meta.accel_note = accel_note;
     meta.accel_tau0 = meta.accel.empty() ? 0 : accel_tau0;
-    if (!meta.accel.empty() && accelOwnStamps0) {
-      meta.accel_stamps = sa.report;
+    if (!meta.accel.empty() && accelOwnStamps0)
       for (const auto& w : sa.report.warnings()) meta.warnings.push_back("accelerometer: " + w);
-    }
   }
 };
 

@@ -16,6 +16,7 @@
 #include <sensor_msgs/Imu.h>
 
 #include "gyro_allan/io/bag_input.hpp"
+#include "gyro_allan/io/imu_message.hpp"
 
 namespace gyro_allan {
 namespace bag_detail {
@@ -64,17 +65,12 @@ class ImuAppender {
   ImuAppender(ImuSeries* s, const BagReadOptions& o) : s_(s), o_(o) {}
   void add(const ros::Time& record_time, const sensor_msgs::Imu& imu) {
     if (!keep(record_time, imu.header)) return;
-    const bool no_gyro = imu.angular_velocity_covariance[0] == -1.0;
-    const bool no_accel = imu.linear_acceleration_covariance[0] == -1.0;
-    s_->gyro_flagged += no_gyro;
-    s_->gyro[0].push_back(no_gyro ? kNaN : imu.angular_velocity.x);
-    s_->gyro[1].push_back(no_gyro ? kNaN : imu.angular_velocity.y);
-    s_->gyro[2].push_back(no_gyro ? kNaN : imu.angular_velocity.z);
+    const ImuHalves h = imuHalves(imu);
+    s_->gyro_flagged += h.gyro_flagged;
+    for (size_t k = 0; k < 3; ++k) s_->gyro[k].push_back(h.gyro[k]);
     if (!o_.accel_topic.empty()) return;  // the accelerometer comes from its own topic
-    s_->accel_flagged += no_accel;
-    s_->accel[0].push_back(no_accel ? kNaN : imu.linear_acceleration.x);
-    s_->accel[1].push_back(no_accel ? kNaN : imu.linear_acceleration.y);
-    s_->accel[2].push_back(no_accel ? kNaN : imu.linear_acceleration.z);
+    s_->accel_flagged += h.accel_flagged;
+    for (size_t k = 0; k < 3; ++k) s_->accel[k].push_back(h.accel[k]);
   }
   /// An angle message (BagReadOptions::angle_topic): the same, with the vector as the three gyro values and no
   /// accelerometer.
@@ -90,11 +86,9 @@ class ImuAppender {
     ++s_->accel_messages;
     const ros::Time stamp = o_.use_bag_time ? record_time : imu.header.stamp;
     accel_t_.push_back(relativeStampNs(stamp, &origin_));
-    const bool no_accel = imu.linear_acceleration_covariance[0] == -1.0;
-    s_->accel_flagged += no_accel;
-    accel_[0].push_back(no_accel ? kNaN : imu.linear_acceleration.x);
-    accel_[1].push_back(no_accel ? kNaN : imu.linear_acceleration.y);
-    accel_[2].push_back(no_accel ? kNaN : imu.linear_acceleration.z);
+    const ImuHalves h = imuHalves(imu);
+    s_->accel_flagged += h.accel_flagged;
+    for (size_t k = 0; k < 3; ++k) accel_[k].push_back(h.accel[k]);
   }
   /// After the last message: the separate accelerometer's samples within the gyro's kept span (zero stamps kept:
   /// its sanitation counts them) moved into the series.
@@ -118,7 +112,6 @@ class ImuAppender {
   ros::Time* origin() { return &origin_; }
 
  private:
-  static constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
   /// Counts the message and, when it is in the time window, appends its stamp (and the frame id): true.
   bool keep(const ros::Time& record_time, const std_msgs::Header& header) {
     ++offered_;

@@ -8,11 +8,11 @@
 #include <cerrno>
 #include <chrono>
 #include <cstdlib>
-#include <limits>
 #include <thread>
 
 #include <pluginlib/class_list_macros.hpp>
 
+#include "gyro_allan/io/imu_message.hpp"
 #include "gyro_allan/io/noise_model_yaml.hpp"
 #include "gyro_allan/io/plot.hpp"  // rasterAvailable
 #include "gyro_allan/io/report.hpp"
@@ -106,26 +106,16 @@ void AnalyzerNodelet::onInit() {
 }
 
 void AnalyzerNodelet::imuCallback(const sensor_msgs::Imu::ConstPtr& m) {
-  // A half flagged absent (covariance[0] = -1, sensor_msgs/Imu's convention) is NaN: dropped and counted as offline.
-  const double nan = std::numeric_limits<double>::quiet_NaN();
-  const bool no_gyro = m->angular_velocity_covariance[0] == -1.0, no_accel = m->linear_acceleration_covariance[0] == -1.0;
-  addSample("imu", m->header,
-            no_gyro ? std::array<double, 3>{{nan, nan, nan}}
-                    : std::array<double, 3>{{m->angular_velocity.x, m->angular_velocity.y, m->angular_velocity.z}},
-            no_accel ? std::array<double, 3>{{nan, nan, nan}}
-                     : std::array<double, 3>{{m->linear_acceleration.x, m->linear_acceleration.y, m->linear_acceleration.z}});
+  const ImuHalves h = imuHalves(*m);  // a half flagged absent is NaN: dropped and counted, as offline
+  addSample("imu", m->header, h.gyro, h.accel);
 }
 
 void AnalyzerNodelet::accelCallback(const sensor_msgs::Imu::ConstPtr& m) {
-  const double nan = std::numeric_limits<double>::quiet_NaN();
-  const bool no_accel = m->linear_acceleration_covariance[0] == -1.0;
+  const ImuHalves h = imuHalves(*m);
   std::lock_guard<std::mutex> lock(mutex_);
   ++accel_messages_;
   if (source_ == "angle") return;
-  oa_->addAccel(static_cast<int64_t>(m->header.stamp.toNSec()),
-                no_accel ? std::array<double, 3>{{nan, nan, nan}}
-                         : std::array<double, 3>{{m->linear_acceleration.x, m->linear_acceleration.y,
-                                                  m->linear_acceleration.z}});
+  oa_->addAccel(static_cast<int64_t>(m->header.stamp.toNSec()), h.accel);
 }
 
 void AnalyzerNodelet::angleCallback(const geometry_msgs::Vector3Stamped::ConstPtr& m) {

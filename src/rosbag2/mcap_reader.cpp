@@ -174,7 +174,6 @@ struct Loaded {
   std::vector<uint8_t> buf;
   std::vector<Pending> msgs;  // wanted messages in log-time order (ties in record order)
   size_t next = 0;
-  size_t order = 0;  // the unit's rank, for ties between units
 };
 
 /// Loads units 0, 1, ... (decompresses, CRC-checks and indexes them) on a thread of its own, at most kAhead ahead of
@@ -381,7 +380,6 @@ class McapStorage : public Storage {
     for (size_t k = 0; k < order.size(); ++k) {
       emitBefore(order[k]->start, false);
       std::unique_ptr<Loaded> l = ahead.take(k);
-      l->order = k;
       if (!l->msgs.empty()) open.push_back(std::move(l));
       else ahead.recycle(std::move(l->buf));
     }
