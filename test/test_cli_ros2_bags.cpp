@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <fstream>
 #include <map>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -23,6 +24,7 @@
 #include "../src/rosbag2/crc32.hpp"
 #include "cli_util.hpp"
 #include "gyro_allan/io/bag_input.hpp"
+#include "gyro_allan/io/imu_message.hpp"
 #include "gyro_allan/rosbag2/cdr.hpp"
 #include "gyro_allan/rosbag2/storage.hpp"
 #include "gyro_allan/rosbag2/writer.hpp"
@@ -150,24 +152,21 @@ class Ros2Bags : public ::testing::Test {
         std::string b = encode(m, v.kind, v.big_endian);
         return v.compression_mode == "MESSAGE" ? rosbag2::zstdCompress(b.data(), b.size()) : b;
       };
+      auto fill = [&](auto& w) {  // McapWriter and SqliteWriter alike
+        for (size_t i = begin; i < end; ++i) {
+          const Msg& m = all[i];
+          if (!ids.count(m.topic)) ids[m.topic] = w.addTopic(topicOf(m));
+          w.write(ids[m.topic], m.recv_ns, bytesOf(m));
+          ++counts[m.topic];
+        }
+        w.close();
+      };
       if (v.storage == "mcap") {
         rosbag2::McapWriter w(path, v.mcap);
-        for (size_t i = begin; i < end; ++i) {
-          const Msg& m = all[i];
-          if (!ids.count(m.topic)) ids[m.topic] = w.addTopic(topicOf(m));
-          w.write(ids[m.topic], m.recv_ns, bytesOf(m));
-          ++counts[m.topic];
-        }
-        w.close();
+        fill(w);
       } else {
         rosbag2::SqliteWriter w(path, v.db_schema);
-        for (size_t i = begin; i < end; ++i) {
-          const Msg& m = all[i];
-          if (!ids.count(m.topic)) ids[m.topic] = w.addTopic(topicOf(m));
-          w.write(ids[m.topic], m.recv_ns, bytesOf(m));
-          ++counts[m.topic];
-        }
-        w.close();
+        fill(w);
       }
       std::string listed = name;
       if (v.compression_mode == "FILE") {
@@ -379,6 +378,44 @@ TEST_F(Ros2Bags, AngleTopicReadsAsFromARos1Bag) {
   EXPECT_EQ(b.frame_id, "rlg");
 }
 
+TEST_F(Ros2Bags, HalvesFlaggedAbsentAreNotData) {
+  // A driver without an accelerometer estimate sets linear_acceleration_covariance[0] = -1 in every message; one
+  // that loses its gyro now and then flags angular_velocity the same way: those samples are dropped and counted
+  // (non_finite), and the accelerometer is not analysed, said on the first screen.
+  const std::string path = kOut + "/flagged.mcap";
+  int64_t flagged = 0;
+  {
+    rosbag2::McapWriter w(path);
+    int id = 0;
+    for (const Msg& m0 : msgs()) {
+      if (m0.temperature) continue;
+      Msg m = m0;
+      m.imu.linear_acceleration_covariance[0] = -1;
+      if (m.imu.header.seq % 500 == 7) m.imu.angular_velocity_covariance[0] = -1, ++flagged;
+      if (id == 0) id = w.addTopic(topicOf(m));
+      w.write(id, m.recv_ns, encode(m, cdr::Kind::Xcdr1, false));
+    }
+    w.close();
+  }
+  ASSERT_GT(flagged, 10);
+  const ToolRun r = run(kTools + "/analyze_bag " + path + " --no-plot --no-model-check --output " + kOut + "/out_flag");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("linear_acceleration_covariance[0] = -1 in every message"), std::string::npos) << r.out;
+  const YAML::Node rep = YAML::LoadFile(kOut + "/out_flag/report.yaml");
+  EXPECT_FALSE(rep["accelerometer"]);
+  EXPECT_EQ(rep["stamps"]["non_finite"].as<int64_t>(), flagged);
+  // The nodelet's conversion is the same function: a flagged half is NaN, the other half kept.
+  sensor_msgs::Imu m;
+  m.angular_velocity.x = 0.5;
+  m.linear_acceleration.z = 9.8;
+  m.linear_acceleration_covariance[0] = -1;
+  const ImuHalves h = imuHalves(m);
+  EXPECT_FALSE(h.gyro_flagged);
+  EXPECT_EQ(h.gyro[0], 0.5);
+  EXPECT_TRUE(h.accel_flagged);
+  EXPECT_TRUE(std::isnan(h.accel[2]));
+}
+
 TEST_F(Ros2Bags, OtherToolsBagsAreReadOrRefusedInOneLine) {
   struct Fixture {
     std::string path;
@@ -524,6 +561,8 @@ TEST_F(Ros2Bags, EurocCsvAndSplitRealSenseStreams) {
     const ToolRun s = run(kTools + "/analyze_bag " + bag + " --no-plot --output " + kOut + "/out_rs");
     ASSERT_EQ(s.code, 0) << s.err;
     EXPECT_NE(s.out.find("accelerometer from /camera/accel/sample at 250 Hz"), std::string::npos) << s.out;
+    std::istringstream screen(s.out + s.err);
+    for (std::string l; std::getline(screen, l);) EXPECT_LE(l.size(), 200u) << l;
     const YAML::Node rs = YAML::LoadFile(kOut + "/out_rs/report.yaml");
     EXPECT_NEAR(rs["axes"]["x"]["rate_hz"].as<double>(), 400, 0.01);
     EXPECT_NEAR(rs["accelerometer"]["axes"]["x"]["rate_hz"].as<double>(), 250, 0.01);

@@ -36,6 +36,7 @@
 #include "gyro_allan/io/report.hpp"
 #include "gyro_allan/kalibr.hpp"
 #include "gyro_allan/pipeline.hpp"
+#include "gyro_allan/rosbag2/storage.hpp"
 #include "gyro_allan/rest.hpp"
 #include "gyro_allan/timing.hpp"
 
@@ -474,7 +475,7 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
     meta.topic = s.topic;
     meta.accel_topic = s.accel_topic;
     if (!s.accel_topic.empty() && args.accel_topic.empty())
-      input_note = "gyro from " + s.topic + ", accelerometer from " + s.accel_topic + " (a split gyro/accel pair)";
+      input_note = "the gyro/accel pair found by its topics' names";
     checkGyroPublished(s);
     names = {"x", "y", "z"};
     t_c = std::move(s.t);
@@ -565,7 +566,7 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
       std::printf("%s", summaryTable(results).c_str());
       if (!accel_results.empty()) std::printf("%s", accelSummaryTable(accel_results).c_str());
     } else {
-      std::printf("%s\n", briefInput(meta, pr, analysed, tau0).c_str());
+      std::printf("%s\n", wrapLine(briefInput(meta, pr, analysed, tau0), 200).c_str());
       std::printf("%s", briefSummary(results, accel_results).c_str());
     }
     if (opt.gmwm) std::printf("%swrote %s/noise_model.yaml\n", gmwmSummary(results).c_str(), args.output.c_str());
@@ -595,19 +596,11 @@ int runBatch(const Args& args) {
   std::vector<std::string> bags;
   DIR* d = opendir(args.batch.c_str());
   if (!d) throw InputError("--batch: cannot open folder '" + args.batch + "'");
-  auto endsWith = [](const std::string& n, const char* e) {
-    const size_t k = std::strlen(e);
-    return n.size() > k && n.compare(n.size() - k, k, e) == 0;
-  };
   while (dirent* e = readdir(d)) {
     const std::string n = e->d_name;
     if (n == "." || n == "..") continue;
-    struct stat st {};
-    const std::string path = args.batch + "/" + n;
-    const bool dir = stat(path.c_str(), &st) == 0 && S_ISDIR(st.st_mode);
-    // ROS 1 bags, ROS 2 storage files, and rosbag2 folders (with metadata.yaml), each analysed on its own.
-    if (dir ? stat((path + "/metadata.yaml").c_str(), &st) == 0
-            : endsWith(n, ".bag") || endsWith(n, ".mcap") || endsWith(n, ".db3"))
+    // ROS 1 bags, ROS 2 storage files and ROS 2 recording folders, each analysed on its own.
+    if ((n.size() > 4 && n.compare(n.size() - 4, 4, ".bag") == 0) || rosbag2::isRos2Input(args.batch + "/" + n))
       bags.push_back(n);
   }
   closedir(d);
