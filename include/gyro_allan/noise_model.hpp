@@ -83,6 +83,10 @@ struct FitOptions {
   /// (for fits whose only use is their values: the model check's trial fits, whose winner is fitted again with
   /// them). Then FitResult::intervals is false and every interval end is NaN.
   bool intervals = true;
+  /// Covariance weighting: estimate with the diagonal of the points' covariance at the model (working independence)
+  /// instead of the full covariance, intervals from the sandwich with the full covariance, adequacy judged with the
+  /// full covariance. Measured worse than the GLS on the population study (docs/fit.md); kept for that comparison.
+  bool working_independence = false;
 };
 
 struct FitResult {

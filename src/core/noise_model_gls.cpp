@@ -209,6 +209,14 @@ struct GlsFit {
   GlsFit(const DeviationCurve& curve_, const FitOptions& options_, const std::vector<ExtraTerm>& extra_)
       : curve(curve_), options(options_), extra(extra_) {}
 
+  // The working covariance the estimate is weighted by: the diagonal of the points' covariance at the model
+  // (working independence), or the full covariance (GLS) when FitOptions::working_independence is off.
+  Eigen::MatrixXd working(const Eigen::VectorXd& cc) const {
+    Eigen::MatrixXd cov = P.covariance(cc);
+    if (options.working_independence) return Eigen::MatrixXd(cov.diagonal().asDiagonal());
+    return cov;
+  }
+
   // The result's fixed fields and per-point arrays.
   void initResult() {
     const size_t np = curve.points.size();
@@ -248,7 +256,7 @@ struct GlsFit {
     constexpr int kMaxIterations = 30;
     constexpr double kConverged = 1e-6;  // largest relative change of the model AVAR at a fitted point
     for (int it = 0; it < kMaxIterations; ++it) {
-      const Whitened w = whiten(P, P.covariance(c));
+      const Whitened w = whiten(P, working(c));
       if (!w.ok) break;
       Eigen::VectorXd next;
       solveNnls(w, all, &next);
@@ -269,6 +277,8 @@ struct GlsFit {
     for (int k = 0; k < ncol; ++k)
       if (c[k] > 0) pos.push_back(k);
     const double chi2 = (w.b - w.A * c).squaredNorm();
+    Eigen::VectorXd best;
+    const double chi2_min = solveNnls(w, all, &best);  // evidence is relative to the best full-covariance fit
     r.dof = std::max(1, n - static_cast<int>(pos.size()));
     r.chi2 = chi2;
     r.chi2_dof = chi2 / r.dof;
@@ -280,7 +290,7 @@ struct GlsFit {
       for (int k : all)
         if (k != col) cols.push_back(k);
       Eigen::VectorXd tmp;
-      r.evidence[static_cast<size_t>(P.term[static_cast<size_t>(col)])] = solveNnls(w, cols, &tmp) - chi2;
+      r.evidence[static_cast<size_t>(P.term[static_cast<size_t>(col)])] = solveNnls(w, cols, &tmp) - chi2_min;
     }
   }
 
@@ -398,11 +408,18 @@ struct GlsFit {
     }
   }
 
-  // The correlation of the IEEE terms' free estimates at the fit (every enabled term free): how B, K and R trade.
-  void correlation(const Whitened& w) {
-    Eigen::VectorXd est;
-    Eigen::MatrixXd cov;
-    solveFree(w, ieee_cols, &est, &cov);
+  // The correlation of the IEEE terms' free estimates at the fit (every enabled term free, the estimate's own
+  // weights, the points' full covariance at the fit): how B, K and R trade.
+  void correlation() {
+    const int m = static_cast<int>(ieee_cols.size());
+    std::vector<Eigen::VectorXd> g(static_cast<size_t>(m));
+    for (int k = 0; k < m; ++k) g[static_cast<size_t>(k)] = weightsOf(ieee_cols, k);
+    for (const auto& gk : g)
+      if (gk.size() == 0) return;
+    const Eigen::MatrixXd sigma = P.covariance(c);
+    Eigen::MatrixXd cov(m, m);
+    for (int i = 0; i < m; ++i)
+      for (int j = 0; j < m; ++j) cov(i, j) = g[static_cast<size_t>(i)].dot(sigma * g[static_cast<size_t>(j)]);
     for (size_t i = 0; i < ieee_cols.size(); ++i)
       for (size_t j = 0; j < ieee_cols.size(); ++j) {
         const double d = std::sqrt(cov(static_cast<int>(i), static_cast<int>(i)) * cov(static_cast<int>(j), static_cast<int>(j)));
@@ -453,16 +470,18 @@ FitResult fitNoiseModelGls(const DeviationCurve& curve, const FitOptions& option
     g.r.message = not_pd;
     return g.r;
   }
-  const Whitened w = whiten(g.P, g.P.covariance(g.c));
-  if (!w.ok) {
+  const Whitened w = whiten(g.P, g.P.covariance(g.c));  // the full covariance: adequacy and evidence
+  const Eigen::MatrixXd working = g.working(g.c);
+  const Whitened we = options.working_independence ? whiten(g.P, working) : w;  // the estimate's own weights
+  if (!w.ok || !we.ok) {
     g.r.message = not_pd;
     return g.r;
   }
   g.statistics(w);
   g.r.intervals = options.intervals;
-  if (options.intervals) g.fit_llt.compute(g.P.covariance(g.c));
-  g.coefficients(w);
-  g.correlation(w);
+  g.fit_llt.compute(working);
+  g.coefficients(we);
+  g.correlation();
   g.modelCurve();
   g.r.ok = true;
   return g.r;
