@@ -534,7 +534,9 @@ int main(int argc, char** argv) {
       else if (a == "--max-samples") max_samples = parsePositive(next(), "--max-samples");
       else if (a == "--threads") threads = static_cast<int>(parsePositive(next(), "--threads"));
       else if (a == "--csv") csv_path = next();
-      else if (a == "--method") opt.method = next();
+      else if (a == "--method") {
+        if (!parseRequestedMethod(next(), &opt.method)) throw std::invalid_argument("--method: auto, joint_fit or wavelet_split");
+      }
       else if (a == "--tau-grid") {
         std::string err;
         if (!parseTauGrid(next(), &opt.deviation.grid, &err)) throw std::invalid_argument("--tau-grid: " + err);
@@ -556,8 +558,6 @@ int main(int argc, char** argv) {
         throw std::invalid_argument("unknown argument '" + a + "'");
       }
     }
-    if (opt.method != "auto" && opt.method != "joint_fit" && opt.method != "wavelet_split")
-      throw std::invalid_argument("--method: auto, joint_fit or wavelet_split");
     if (duration_override > 0 && !durations.empty())
       throw std::invalid_argument("--duration and --durations exclude each other");
 
@@ -638,7 +638,7 @@ int main(int argc, char** argv) {
     std::printf("# coverage_study: seeds %d-%d (%s), %zu class runs x %d seeds = %zu axis-runs, %d thread(s)\n", s0,
                 s1, set, jobs.size(), s1 - s0 + 1, runs.size(), threads);
     std::printf("# analyzeAxis: method %s, tau grid %s, wavelet split %s, model check %s, spikes removed %s\n",
-                opt.method.c_str(), tauGridName(opt.deviation.grid).c_str(), opt.wavelet_split ? "on" : "off",
+                methodName(opt.method), tauGridName(opt.deviation.grid).c_str(), opt.wavelet_split ? "on" : "off",
                 opt.model_check ? "on" : "off", opt.remove_spikes ? "yes" : "no");
     std::fflush(stdout);
 
@@ -658,7 +658,7 @@ int main(int argc, char** argv) {
           seg[0] = simulateAxis(j.k.a, j.rate_hz, n, r.sim_seed, 0);
           const AxisAnalysis a = analyzeAxis("x", seg, 1.0 / j.rate_hz, opt);
           r.c = a.coefficients;
-          r.method = a.method;
+          r.method = methodName(a.method);
           r.quality = qualityName(a.quality.quality);
           r.rms_log10 = a.final_error.rms_log10;
           r.chi2_dof = a.final_error.chi2_dof;
