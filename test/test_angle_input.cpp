@@ -125,7 +125,7 @@ TEST(AngleInput, UnditheredRlgSplitFromAngle) {
   // ... and the axis's notes say so.
   EXPECT_TRUE(std::any_of(a.notes.begin(), a.notes.end(),
                           [](const std::string& n) { return n.find("parametric bootstrap") != std::string::npos; }));
-  EXPECT_EQ(a.method, "wavelet_split") << a.method_reason;
+  EXPECT_EQ(a.method, Method::WaveletSplit) << a.method_reason;
   EXPECT_EQ(a.method, r.method);
   for (int t : {kQuantization, kAngleRandomWalk})
     EXPECT_NEAR(a.coefficients[t].value / r.coefficients[t].value, 1.0, 1e-6) << t;

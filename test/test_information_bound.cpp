@@ -7,7 +7,7 @@
 #include <limits>
 #include <random>
 
-#include "gyro_allan/information_bound.hpp"
+#include "../studies/information_bound.hpp"
 #include "gyro_allan/noise_model.hpp"
 
 using namespace gyro_allan;

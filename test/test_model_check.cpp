@@ -159,7 +159,7 @@ void expectRuleHolds(const ModelCheck& mc, const std::string& what) {
   }
 }
 
-// Sensor classes of check_study (src/tools/check_study.cpp), for the property tests.
+// Sensor classes of check_study (studies/check_study.cpp), for the property tests.
 struct StudyCase {
   std::string name;
   AxisNoise a;

@@ -165,7 +165,7 @@ TEST(Plot, EmptyInputSaysWaiting) {
 TEST(Plot, AnalysisFigureHasAPanelPerAxisAndTheReportedTerms) {
   AxisAnalysis a;
   a.axis = "x";
-  a.method = "joint_fit";
+  a.method = Method::JointFit;
   a.oadev = whiteCurve(1e-3);
   a.coefficients[kAngleRandomWalk].value = 1e-3;
   a.coefficients[kAngleRandomWalk].supported = true;

@@ -71,8 +71,8 @@ TEST(PulseTimes, AutoReadsASlowRingLaserGyro) {
   int used = 0;
   for (uint64_t seed = 1; seed <= 4; ++seed) {
     const AxisAnalysis a = analyzeAxis("x", {simulateAxis(n, hz, 360000, seed)}, tau0, AnalysisOptions{});
-    if (a.method != "pulse_times") {
-      EXPECT_EQ(a.quality.quality, Quality::Bad) << "seed " << seed << ": " << a.method;  // never a confident miss
+    if (a.method != Method::PulseTimes) {
+      EXPECT_EQ(a.quality.quality, Quality::Bad) << "seed " << seed << ": " << methodName(a.method);  // never a confident miss
       continue;
     }
     ++used;

@@ -69,7 +69,7 @@ TEST(QuickView, CurveIsTheBatchOadevAndNAgreesWithTheFullAnalysis) {
   for (int a = 0; a < 3; ++a) {
     const AxisAnalysis& qa = q.axes[static_cast<size_t>(a)];
     ASSERT_TRUE(qa.fit.ok) << qa.fit.message;
-    EXPECT_EQ(qa.method, "quick_fit");
+    EXPECT_EQ(qa.method, Method::QuickFit);
     const double nq = qa.coefficients[kAngleRandomWalk].value;
     const double nf = full.result.gyro[static_cast<size_t>(a)].coefficients[kAngleRandomWalk].value;
     EXPECT_NEAR(nq / nf, 1.0, 0.01) << "axis " << a << ": quick N " << nq << ", full N " << nf;

@@ -11,7 +11,7 @@
 #include <vector>
 
 #define REST_STUDY_NO_MAIN
-#include "../src/tools/rest_study.cpp"  // the study's scenario generators (same scenarios the study measured)
+#include "../studies/rest_study.cpp"  // the study's scenario generators (same scenarios the study measured)
 
 using namespace gyro_allan;
 using namespace rest_study;

@@ -228,9 +228,9 @@ TEST(RosConversion, ReportMethodAsAnalyzeBag) {
   EXPECT_EQ(gyro_allan::reportMethod(p), "gmwm");
   p.filter_rate = 20;
   EXPECT_EQ(gyro_allan::reportMethod(p), "gmwm");
-  p.method = "joint_fit";
+  p.method = gyro_allan::Method::JointFit;
   EXPECT_EQ(gyro_allan::reportMethod(p), "joint_fit");
-  p.method = "wavelet_split";
+  p.method = gyro_allan::Method::WaveletSplit;
   p.online.pipeline.analysis.gmwm = false;
   p.filter_rate = 0;
   EXPECT_EQ(gyro_allan::reportMethod(p), "wavelet_split");

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "gyro_allan/allan.hpp"
+#include "gyro_allan/answer.hpp"
 #include "gyro_allan/gmwm.hpp"
 #include "gyro_allan/pulse_times.hpp"
 #include "gyro_allan/model_check.hpp"
@@ -27,9 +28,8 @@ struct AnalysisOptions {
   InputKind input = InputKind::Rate;
   /// Angle input only: the samples are per-sample increments [rad] instead of the accumulated angle.
   bool angle_increments = false;
-  /// Method whose coefficients are the answer: "auto" (wavelet_split when quantization dominates the shortest tau,
-  /// else joint_fit), "joint_fit" or "wavelet_split".
-  std::string method = "auto";
+  /// Method whose coefficients are the answer: Auto (the rules of answer.hpp choose), JointFit or WaveletSplit.
+  Method method = Method::Auto;
   bool wavelet_split = true;                        ///< run the wavelet split (needed for method wavelet_split)
   WaveletSplitOptions split;
   bool model_check = true;                          ///< run the closed loop (residual -> effect -> refit)
@@ -62,7 +62,7 @@ struct AxisAnalysis {
   WaveletSplitResult split;         ///< wavelet_split (on the longest gap-free segment)
   bool has_check = false;
   ModelCheck check;                 ///< model check of the joint fit (on the longest gap-free segment)
-  std::string method;               ///< method chosen for `coefficients`
+  Method method = Method::JointFit; ///< method chosen for `coefficients` (answer.hpp)
   std::string method_reason;        ///< why
   /// The answer: the chosen method's coefficients; for joint_fit with effects added by the model check, the base
   /// coefficients of the joint refit.
@@ -70,6 +70,10 @@ struct AxisAnalysis {
   FitError final_error;             ///< rms_log10 / chi2_dof of the model behind `coefficients` (effects included)
   std::vector<double> final_model_var;  ///< that model's AVAR at oadev's points
   std::vector<std::string> notes;   ///< human notes (segment used, stages skipped and why)
+  /// Those of `notes` about the model check (the segment it used, why it failed or was skipped), for its readers.
+  std::vector<std::string> check_notes;
+  /// Only the longest static stretch of a record that moved was analysed (set by the pipeline; the verdict says so).
+  bool static_stretch = false;
   /// Spike removal (rate input with remove_spikes): what was found, summed over segments (indices into the
   /// concatenated segments). Every deviation and coefficient above is of the samples with the spikes replaced.
   bool spikes_checked = false;
@@ -134,6 +138,15 @@ class AxisStages {
  private:
   void removeSegmentSpikes();
   void pulseTimes();
+  // finish()'s steps, in order.
+  void runGmwm();
+  void noteStages();
+  MethodChoice chooseAllanMethod() const;
+  void answerWithSplit();
+  void answerWithFit(const FitResult& f);
+  void considerPulseTimes();
+  void answerWithPulseTimes();
+  void judge();
   std::string axis_;
   std::vector<std::vector<double>> segments_;
   double tau0_;

@@ -242,6 +242,12 @@ CurveAgreement curveAgreement(const DeviationCurve& curve, const std::vector<dou
                               double tau_max);
 
 /// GMWM of one axis (the analysis stage behind --method gmwm and noise_model.yaml).
+/// A model-check effect that is not a known term of the GMWM fit, and why.
+struct LeftOutEffect {
+  std::string type;    ///< DetectedEffect::type
+  std::string reason;
+};
+
 struct GmwmAxis {
   bool ok = false;
   std::string message;             ///< why not ok
@@ -256,19 +262,19 @@ struct GmwmAxis {
   CurveAgreement gmwm_vs_data, ieee_vs_data;
   CurveAgreement final_vs_data;  ///< the report's final model (IEEE terms + the model check's effects, or the split)
   double worst_avar_ratio_vs_ieee = 1;  ///< max over the same points of the AVAR ratio GMWM / IEEE model (or inverse)
-  /// Effects of the model check that are not known terms of the fit, "type: reason" (knownTermsFromEffects).
-  std::vector<std::string> effects_not_in_model;
+  /// Effects of the model check that are not known terms of the fit (knownTermsFromEffects).
+  std::vector<LeftOutEffect> effects_not_in_model;
 };
 
 /// WV and model selection on one gap-free segment of rate samples. Never throws: ok = false with a message.
 GmwmAxis gmwmStage(const std::vector<double>& rate, double tau0, const GmwmOptions& options = {});
 /// The model check's effects as known terms: sinusoid and narrowband enter (c from the check's joint refit);
-/// the others are returned in *left_out as "type: reason" (gauss_markov / short_correlation: the GMWM's own GM / MA(q)
+/// the others are returned in *left_out with the reason (gauss_markov / short_correlation: the GMWM's own GM / MA(q)
 /// terms model it; bias_step, thermal_drift, warmup, outliers: not stationary, no wavelet-variance term).
 struct DetectedEffect;
 std::vector<GmwmKnownTerm> knownTermsFromEffects(const std::vector<DetectedEffect>& effects,
                                                  const std::vector<double>& extra_c,
-                                                 std::vector<std::string>* left_out);
+                                                 std::vector<LeftOutEffect>* left_out);
 /// Fills the closed-loop comparison (ieee_model_var: the IEEE model's AVAR at oadev's points).
 /// final_model_var (optional): the report's final model at the same points.
 void gmwmCompare(GmwmAxis* g, const DeviationCurve& oadev, const std::vector<double>& ieee_model_var,

@@ -61,6 +61,7 @@ struct OnlineResult {
   int64_t first_ns = 0, last_ns = 0;     ///< the window analysed [ns]
   bool ok = false;                       ///< false: not analysable, `error` says why
   std::string error;
+  bool not_at_rest = false;              ///< not analysable because the sensor moved (NotAtRest)
   PipelineResult result;                 ///< when ok
   StampReport new_samples;               ///< sanitation counts of the samples new since the previous job
 };

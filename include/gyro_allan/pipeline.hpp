@@ -5,6 +5,7 @@
 #include <array>
 #include <cstdint>
 #include <functional>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -12,6 +13,7 @@
 #include "gyro_allan/compact_series.hpp"
 #include "gyro_allan/rest.hpp"
 #include "gyro_allan/timing.hpp"
+#include "gyro_allan/warning.hpp"
 
 namespace gyro_allan {
 
@@ -45,7 +47,7 @@ struct PipelineOptions {
 /// Everything the pipeline decided about one record.
 struct PipelineResult {
   StampReport stamps;                  ///< sanitation counts of the gyro series
-  std::vector<std::string> warnings;   ///< for the user, in order: stamps, motion, per axis, spikes, bad fits, accel
+  std::vector<Warning> warnings;       ///< for the user, in order: stamps, motion, per axis, spikes, bad fits, accel
   double tau0 = 0;                     ///< nominal period, s
   bool rest_checked = false;
   RestResult rest;
@@ -61,8 +63,14 @@ struct PipelineResult {
   int64_t analysed() const { return stamps.kept - rest_excluded; }
 };
 
+/// A record that moved and has no static stretch long enough to analyse (runPipeline throws it).
+struct NotAtRest : std::invalid_argument {
+  using std::invalid_argument::invalid_argument;
+};
+
 /// Runs the pipeline on one record (consumed). Throws std::invalid_argument when the record is not analysable (too
-/// few valid samples, moving without a usable static stretch, too short for any Allan point), with a one-line reason.
+/// few valid samples, moving without a usable static stretch (NotAtRest), too short for any Allan point), with a
+/// one-line reason.
 /// `counted`, when given, receives the sanitation's SanitizedSeries::counted (problems of the input samples from
 /// options.sanitize.count_from on) as soon as it is known, also when the record then proves not analysable.
 PipelineResult runPipeline(PipelineInput&& input, const PipelineOptions& options, StampReport* counted = nullptr);

@@ -40,10 +40,6 @@ constexpr double kDoubtfulMethodRatio = 2.0;     ///< doubtful when joint_fit's 
 inline bool notBad(double rms_log10, double chi2_dof) { return rms_log10 <= kBadRmsLog10 && chi2_dof <= kBadChi2Dof; }
 }  // namespace quality_limits
 
-/// The note analyze_bag adds to each axis (AxisAnalysis::notes) when only the longest static stretch of a record that
-/// moved was analysed; assessQuality looks for it.
-extern const char* const kStaticStretchNote;
-
 /// What assessQuality(FitResult) cannot see in the fit itself (all optional).
 struct QualityContext {
   int64_t samples = 0;          ///< samples analysed (for the spike fraction)
@@ -57,7 +53,7 @@ struct QualityContext {
 };
 
 /// The verdict of one analysed axis: from final_error (the error of the chosen method's model), the coefficients,
-/// whether the chosen method succeeded, the spikes, the notes (static stretch) and joint_fit vs wavelet_split N.
+/// whether the chosen method succeeded, the spikes, AxisAnalysis::static_stretch and joint_fit vs wavelet_split N.
 /// bad: the fit failed, no coefficient is supported, worst_adev_ratio > kBadAdevRatio or chi2_dof > kBadChi2Dof (or
 /// either not finite); doubtful: worst_adev_ratio > kDoubtfulAdevRatio, chi2_p < kDoubtfulP (chi2_dof >
 /// kDoubtfulChi2Dof without a p-value), the record was cut to a static stretch, spikes above kDoubtfulSpikeFraction of

@@ -22,7 +22,7 @@ struct QuickViewOptions {
   int64_t min_samples = 1000;       ///< samples before the sample period is estimated and the first answer (>= 3)
 };
 
-/// What the quick view knows: per axis an AxisAnalysis with axis, oadev, method "quick_fit" and, once fitted, fit,
+/// What the quick view knows: per axis an AxisAnalysis with axis, oadev, method QuickFit and, once fitted, fit,
 /// coefficients (the fit's), final_model_var and final_error; nothing else of the full pipeline (no sanitation beyond
 /// gaps, no at-rest check, wavelet split, model check or verdict).
 struct QuickAnswer {

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "gyro_allan/compact_series.hpp"
+#include "gyro_allan/warning.hpp"
 
 namespace gyro_allan {
 
@@ -173,7 +174,7 @@ struct ValueAnomalies {
   int64_t saturated = 0;          ///< samples in those runs
   double threshold = 0;           ///< distance from the median that counts as extreme (input units)
   /// One line per anomaly class found, each prefixed with `what` (e.g. "axis x").
-  std::vector<std::string> warnings(const std::string& what) const;
+  std::vector<Warning> warnings(const std::string& what) const;
 };
 ValueAnomalies detectValueAnomalies(const std::vector<double>& v, double min_rate = 0.1);
 

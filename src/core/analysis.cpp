@@ -9,18 +9,6 @@
 #include <thread>
 
 namespace gyro_allan {
-namespace {
-
-// The wavelet split answers when quantization is at least this share of the Allan variance at the shortest tau.
-constexpr double kSplitQuantizationShare = 0.5;
-// pulse_times (slow undithered counters): the linear interpolation between lattice crossings smooths the angle's
-// random walk, so its N comes out low by ~2 % in 1-2 h records and ~9 % in 10 min ones (median; coverage_study seeds
-// 6001-6020, classes rlg_saw1/rlg_saw2). N's sigma gets this relative systematic allowance in quadrature, and the
-// method is used only when the result is that precise.
-constexpr double kPulseTimesSystematic = 0.03;
-constexpr double kPulseTimesMaxRelSigma = 0.10;
-}  // namespace
-
 double conventionalFactor(int term) {
   const double deg = 180.0 / M_PI;
   switch (term) {
@@ -73,9 +61,10 @@ void AxisStages::prepare() {
   const double tau0 = tau0_;
   const AnalysisOptions& options = options_;
   AxisAnalysis& a = a_;
-  if (options.method != "auto" && options.method != "joint_fit" && options.method != "wavelet_split")
-    throw std::invalid_argument("unknown method '" + options.method + "' (auto, joint_fit, wavelet_split)");
-  if (options.method == "wavelet_split" && !options.wavelet_split)
+  if (options.method == Method::PulseTimes || options.method == Method::QuickFit)
+    throw std::invalid_argument(std::string("method ") + methodName(options.method) +
+                                " cannot be requested (auto, joint_fit, wavelet_split)");
+  if (options.method == Method::WaveletSplit && !options.wavelet_split)
     throw std::invalid_argument("method wavelet_split needs the wavelet split enabled");
   if (!(tau0 > 0) || !std::isfinite(tau0)) throw std::invalid_argument("sample interval must be positive and finite");
   if (!(options.deviation.confidence > 0 && options.deviation.confidence < 1))
@@ -159,9 +148,11 @@ void AxisStages::prepare() {
   // Stages that need contiguous raw samples run on the longest gap-free segment.
   for (size_t i = 1; i < segments.size(); ++i)
     if (segments[i].size() > segments[longest_].size()) longest_ = i;
-  if (a.segments > 1)
+  if (a.segments > 1) {
     a.notes.push_back("wavelet split and model check use the longest gap-free segment (" +
                       std::to_string(segments[longest_].size()) + " of " + std::to_string(a.samples) + " samples)");
+    a.check_notes.push_back(a.notes.back());
+  }
   prepared_ = true;
 }
 
@@ -227,8 +218,8 @@ double quantizationShare(const AxisAnalysis& a) {
 // or a joint fit the data reject grossly. Elsewhere it would only cost time and memory (a quarter of a 1 h MEMS
 // record's analysis) for an answer nobody reads.
 bool splitCanAnswer(const AxisAnalysis& a, const AnalysisOptions& options) {
-  if (options.method == "wavelet_split") return true;
-  if (options.method != "auto") return false;
+  if (options.method == Method::WaveletSplit) return true;
+  if (options.method != Method::Auto) return false;
   return quantizationShare(a) >= kSplitQuantizationShare || a.quantized.sawtooth || grossMisfit(a.fit);
 }
 
@@ -289,7 +280,7 @@ void AxisStages::check() {
 void AxisStages::pulseTimes() {
   AxisAnalysis& a = a_;
   const QuantizedOutput& q = a.quantized;
-  if (options_.method != "auto" || !isPulseCount(q) || q.sawtooth) return;
+  if (options_.method != Method::Auto || !isPulseCount(q) || q.sawtooth) return;
   a.has_pulse_times = true;
   a.pulse_times = reconstructPulseTimes(segments_[longest_], tau0_, q);
   if (!a.pulse_times.ok) return;
@@ -310,199 +301,177 @@ void AxisStages::pulseTimes() {
   a.pulse_oadev = c;
 }
 
-AxisAnalysis AxisStages::finish() {
-  if (!prepared_) throw std::logic_error("AxisStages::finish before prepare");
-  if (options_.gmwm && longest_ < segments_.size()) {  // GMWM stage (gmwm.hpp), before the samples are freed
-    // The model check's stationary spectral effects (sinusoid, narrowband) enter as known terms (docs/gmwm.md).
-    GmwmOptions go = options_.gmwm_options;
-    std::vector<std::string> left_out;
-    if (a_.has_check && go.known.empty())
-      go.known = knownTermsFromEffects(a_.check.effects, a_.check.fit_after.extra_c, &left_out);
-    a_.gmwm = gmwmStage(segments_[longest_], tau0_, go);
-    a_.gmwm.effects_not_in_model = left_out;
-    a_.has_gmwm = true;
-  }
-  if (longest_ < segments_.size()) pulseTimes();
-  std::vector<std::vector<double>>().swap(segments_);  // the samples are not needed any more
-  const std::string& axis = axis_;
-  const AnalysisOptions& options = options_;
+void AxisStages::runGmwm() {
+  if (!options_.gmwm || longest_ >= segments_.size()) return;
+  // The model check's stationary spectral effects (sinusoid, narrowband) enter as known terms (docs/gmwm.md).
+  GmwmOptions go = options_.gmwm_options;
+  std::vector<LeftOutEffect> left_out;
+  if (a_.has_check && go.known.empty())
+    go.known = knownTermsFromEffects(a_.check.effects, a_.check.fit_after.extra_c, &left_out);
+  a_.gmwm = gmwmStage(segments_[longest_], tau0_, go);
+  a_.gmwm.effects_not_in_model = left_out;
+  a_.has_gmwm = true;
+}
+
+void AxisStages::noteStages() {
   AxisAnalysis& a = a_;
   if (!split_note_.empty()) a.notes.push_back(split_note_);
-  if (!check_note_.empty()) a.notes.push_back(check_note_);
-  if (a.has_split && a.split.ok) {
-    // Where the split's Q and N came from on a pulse count whose quantization is not white (a sawtooth).
-    const SawtoothBootstrap& b = a.split.sawtooth_bootstrap;
-    if (b.applied) {
-      char buf[320];
-      std::snprintf(buf, sizeof buf,
-                    "wavelet split: quantization not white (a sawtooth); Q and N corrected for the split's bias by a "
-                    "parametric bootstrap (%d records simulated from the fitted pulse counter: Q %+.3g %%, N %+.3g %%), "
-                    "Q's interval from their scatter",
-                    b.replicas, 100.0 * (a.split.terms[kQuantization].value / std::sqrt(b.q2_raw) - 1.0),
-                    100.0 * (a.split.terms[kAngleRandomWalk].value / std::sqrt(b.n2_raw) - 1.0));
-      a.notes.push_back(buf);
-    } else if (!b.note.empty()) {
-      a.notes.push_back("wavelet split, sawtooth bootstrap " + b.note + "; Q and N keep the analytic allowance");
-    }
+  if (!check_note_.empty()) {
+    a.notes.push_back(check_note_);
+    a.check_notes.push_back(check_note_);
   }
-
-  // The answer.
-  const bool split_ok = a.has_split && a.split.ok;
-  std::string method = options.method;
-  if (method == "auto") {
-    // Quantization-limited gyros (RLG/FOG pulse outputs): where 3Q^2/tau^2 is most of the AVAR at the shortest tau the
-    // Allan fit trades Q against N, and the wavelet split separates them by scale (docs/wavelet_split.md).
-    const double q_share = quantizationShare(a);
-    const std::string share =
-        "quantization is " + std::to_string(static_cast<int>(100 * q_share)) + " % of the Allan variance at the shortest tau";
-    if (split_ok && q_share >= kSplitQuantizationShare) {
-      method = "wavelet_split";
-      a.method_reason = share;
-    } else {
-      method = "joint_fit";
-      a.method_reason = q_share < kSplitQuantizationShare
-                            ? share + " (the wavelet split answers from " +
-                                  std::to_string(static_cast<int>(100 * kSplitQuantizationShare)) + " %)"
-                            : "wavelet split not available";
-    }
-    // Evidence: each method's generalized chi-squared on the curve it fitted (joint: the Allan variance; split: the
-    // denoised signal's). Neither is returned when its fit is grossly worse than the other's — e.g. an undithered
-    // pulse counter at constant rate, whose sawtooth quantization the Allan model cannot describe (chi2/dof ~1e3)
-    // while the split removes it and fits the rest at chi2/dof ~1.
-    const FitResult& joint = a.fit;
-    const FitResult* den = split_ok && a.split.denoised_fit.ok ? &a.split.denoised_fit : nullptr;
-    char buf[240];
-    if (method == "joint_fit" && split_ok && a.quantized.sawtooth) {
-      method = "wavelet_split";
-      a.method_reason = "undithered quantization: the pulse count repeats at " + std::to_string(a.quantized.sawtooth_hz) +
-                        " Hz (a sawtooth the Allan model's white quantization term cannot describe)";
-    } else if (method == "joint_fit" && den && grossMisfit(joint) && !grossMisfit(*den) && den->chi2_dof * 10 < joint.chi2_dof) {
-      method = "wavelet_split";
-      std::snprintf(buf, sizeof buf,
-                    "the Allan model cannot describe the curve (joint fit chi2/dof %.3g, p %.2g) while the split's "
-                    "fit of the denoised signal has chi2/dof %.3g",
-                    joint.chi2_dof, joint.chi2_p, den->chi2_dof);
-      a.method_reason = buf;
-    } else if (method == "wavelet_split" && den && grossMisfit(*den) && !grossMisfit(joint) && joint.chi2_dof * 10 < den->chi2_dof) {
-      method = "joint_fit";
-      std::snprintf(buf, sizeof buf,
-                    "quantization dominates the shortest tau, but the split's fit is grossly worse (chi2/dof %.3g "
-                    "against the joint fit's %.3g)",
-                    den->chi2_dof, joint.chi2_dof);
-      a.method_reason = buf;
-    }
-  } else {
-    a.method_reason = "requested";
-  }
-  if (method == "wavelet_split" && !split_ok)
-    throw std::invalid_argument("axis " + axis + ": wavelet split failed: " + (a.has_split ? a.split.message : "not run"));
-  a.method = method;
-  a.final_model_var.resize(a.oadev.points.size());
-  if (method == "wavelet_split") {
-    a.coefficients = a.split.terms;
-    FitResult tmp;
-    tmp.terms = a.split.terms;  // the curve the split fitted
-    tmp.tau0 = a.oadev.tau0;          // B's column as the fits have it (noiseTermBasis)
-    for (size_t i = 0; i < a.oadev.points.size(); ++i) a.final_model_var[i] = modelVariance(tmp, a.oadev.points[i].tau);
-    int n_params = 0;
-    for (const auto& c : a.split.terms) n_params += c.value > 0 ? 1 : 0;
-    a.final_error = fitError(a.oadev, a.final_model_var, a.fit.used, n_params, options.fit.rms_min_edf);
-    const FitResult& den = a.split.denoised_fit;
-    auto bad = [](double rms, double chi2) { return !quality_limits::notBad(rms, chi2); };
-    // A pulse count whose pattern repeats too slowly for the sawtooth test (a counter at ~0 rate: the angle wanders
-    // across a few quanta in the record, and its rounding error is neither white nor a sawtooth): nothing explains
-    // the raw misfit, which then stands.
-    const QuantizedOutput& qo = a.quantized;
-    const bool slow_counter = isPulseCount(qo) && !qo.sawtooth && !(qo.line_to_floor > 0);
-    if (bad(a.final_error.rms_log10, a.final_error.chi2_dof) && den.ok && !bad(den.rms_log10, den.chi2_dof) &&
-        !slow_counter) {
-      // The raw Allan curve is not the IEEE model's while the denoised signal is: the removed part is not white
-      // quantization (an undithered pulse count at constant rate is a sawtooth). The split's answer is judged by
-      // its fit of the denoised signal; the axis is bad only when both fit badly.
-      char note[240];
-      std::snprintf(note, sizeof note,
-                    "fit error is that of the denoised signal: the raw Allan curve misfits the split's model "
-                    "(rms_log10 %.3g, chi2/dof %.3g), as for non-white (sawtooth) quantization",
-                    a.final_error.rms_log10, a.final_error.chi2_dof);
-      a.notes.push_back(note);
-      a.final_error = fitErrorOf(den);
-    } else if (bad(a.final_error.rms_log10, a.final_error.chi2_dof) && slow_counter) {
-      char note[300];
-      std::snprintf(note, sizeof note,
-                    "the raw Allan curve misfits the split's model and the output is a pulse count that changes too "
-                    "rarely for a sawtooth (mean count %.3g per sample): its rounding error is neither white nor a "
-                    "sawtooth, so Q and N cannot be separated on this record",
-                    qo.mean_count);
-      a.notes.push_back(note);
-    }
-  } else if (a.has_check && !a.check.effects.empty()) {
-    a.coefficients = a.check.fit_after.terms;
-    a.final_model_var = a.check.fit_after.model_var;
-    a.final_error = fitErrorOf(a.check.fit_after);
-  } else {
-    a.coefficients = a.fit.terms;
-    a.final_model_var = a.fit.model_var;
-    a.final_error = fitErrorOf(a.fit);
-  }
-  // The pulse-time N with its interval widened by the interpolation's systematic error (kPulseTimesSystematic).
-  Coefficient pulse_n = a.pulse_fit.terms[kAngleRandomWalk];
-  if (a.has_pulse_times && a.pulse_times.ok && a.pulse_fit.ok && pulse_n.supported) {
-    pulse_n.sigma = std::hypot(pulse_n.sigma, kPulseTimesSystematic * pulse_n.value);
-    pulse_n.lo68 = std::max(0.0, pulse_n.value - pulse_n.sigma), pulse_n.hi68 = pulse_n.value + pulse_n.sigma;
-    pulse_n.lo95 = std::max(0.0, pulse_n.value - 1.96 * pulse_n.sigma), pulse_n.hi95 = pulse_n.value + 1.96 * pulse_n.sigma;
-  }
-  if (a.has_pulse_times && a.pulse_times.ok && a.pulse_fit.ok && pulse_n.supported &&
-      pulse_n.sigma <= kPulseTimesMaxRelSigma * pulse_n.value &&
-      !quality_limits::notBad(a.final_error.rms_log10, a.final_error.chi2_dof) &&
-      quality_limits::notBad(a.pulse_fit.rms_log10, a.pulse_fit.chi2_dof)) {
-    // auto: the chosen method fits badly, the pulse-time reconstruction (pulseTimes) does not.
+  if (!(a.has_split && a.split.ok)) return;
+  // Where the split's Q and N came from on a pulse count whose quantization is not white (a sawtooth).
+  const SawtoothBootstrap& b = a.split.sawtooth_bootstrap;
+  if (b.applied) {
     char buf[320];
     std::snprintf(buf, sizeof buf,
-                  "a pulse count without a sawtooth; %s fits badly (rms_log10 %.3g, chi2/dof %.3g) while the angle "
-                  "reconstructed at the lattice crossings fits (rms_log10 %.3g, chi2/dof %.3g)",
-                  a.method.c_str(), a.final_error.rms_log10, a.final_error.chi2_dof, a.pulse_fit.rms_log10,
-                  a.pulse_fit.chi2_dof);
-    a.method = "pulse_times";
-    a.method_reason = buf;
-    a.coefficients = a.pulse_fit.terms;
-    a.coefficients[kAngleRandomWalk] = pulse_n;
-    // Q: the lattice's pulse weight as white quantization, q / sqrt(12) (the lattice is refined by least squares
-    // over the whole record; its relative error is far below 1e-6, used as the interval).
-    const double qv = a.quantized.pulse_weight / std::sqrt(12.0);
-    Coefficient& cq = a.coefficients[kQuantization];
-    cq.value = qv;
-    cq.sigma = 1e-6 * qv;
-    cq.supported = true;
-    cq.lo68 = qv - cq.sigma, cq.hi68 = qv + cq.sigma, cq.lo95 = qv - 2 * cq.sigma, cq.hi95 = qv + 2 * cq.sigma;
-    FitResult shown = a.pulse_fit;
-    shown.terms[kQuantization] = cq;
-    for (size_t i = 0; i < a.oadev.points.size(); ++i) a.final_model_var[i] = modelVariance(shown, a.oadev.points[i].tau);
-    a.final_error = fitErrorOf(a.pulse_fit);
-    a.notes.push_back("pulse_times: " + a.pulse_times.message +
-                      "; fit error is that of the reconstructed angle's Allan curve; Q is the pulse weight / sqrt(12)");
-  } else if (a.has_pulse_times && !a.pulse_times.ok) {
+                  "wavelet split: quantization not white (a sawtooth); Q and N corrected for the split's bias by a "
+                  "parametric bootstrap (%d records simulated from the fitted pulse counter: Q %+.3g %%, N %+.3g %%), "
+                  "Q's interval from their scatter",
+                  b.replicas, 100.0 * (a.split.terms[kQuantization].value / std::sqrt(b.q2_raw) - 1.0),
+                  100.0 * (a.split.terms[kAngleRandomWalk].value / std::sqrt(b.n2_raw) - 1.0));
+    a.notes.push_back(buf);
+  } else if (!b.note.empty()) {
+    a.notes.push_back("wavelet split, sawtooth bootstrap " + b.note + "; Q and N keep the analytic allowance");
+  }
+}
+
+MethodChoice AxisStages::chooseAllanMethod() const {
+  const AxisAnalysis& a = a_;
+  AnswerEvidence e;
+  e.requested = options_.method;
+  e.split_ok = a.has_split && a.split.ok;
+  e.quantization_share = quantizationShare(a);
+  e.sawtooth = a.quantized.sawtooth;
+  e.sawtooth_hz = a.quantized.sawtooth_hz;
+  e.joint = &a.fit;
+  e.denoised = e.split_ok && a.split.denoised_fit.ok ? &a.split.denoised_fit : nullptr;
+  const MethodChoice c = chooseMethod(e);
+  if (c.method == Method::WaveletSplit && !e.split_ok)
+    throw std::invalid_argument("axis " + axis_ + ": wavelet split failed: " + (a.has_split ? a.split.message : "not run"));
+  return c;
+}
+
+void AxisStages::answerWithSplit() {
+  AxisAnalysis& a = a_;
+  a.coefficients = a.split.terms;
+  FitResult tmp;
+  tmp.terms = a.split.terms;  // the curve the split fitted
+  tmp.tau0 = a.oadev.tau0;    // B's column as the fits have it (noiseTermBasis)
+  for (size_t i = 0; i < a.oadev.points.size(); ++i) a.final_model_var[i] = modelVariance(tmp, a.oadev.points[i].tau);
+  int n_params = 0;
+  for (const auto& c : a.split.terms) n_params += c.value > 0 ? 1 : 0;
+  a.final_error = fitError(a.oadev, a.final_model_var, a.fit.used, n_params, options_.fit.rms_min_edf);
+  const FitResult& den = a.split.denoised_fit;
+  const bool raw_bad = !quality_limits::notBad(a.final_error.rms_log10, a.final_error.chi2_dof);
+  // A pulse count whose pattern repeats too slowly for the sawtooth test (a counter at ~0 rate: the angle wanders
+  // across a few quanta in the record, and its rounding error is neither white nor a sawtooth): nothing explains the
+  // raw misfit, which then stands.
+  const QuantizedOutput& qo = a.quantized;
+  const bool slow_counter = isPulseCount(qo) && !qo.sawtooth && !(qo.line_to_floor > 0);
+  char note[300];
+  if (raw_bad && den.ok && quality_limits::notBad(den.rms_log10, den.chi2_dof) && !slow_counter) {
+    // The raw Allan curve is not the IEEE model's while the denoised signal is: the removed part is not white
+    // quantization (an undithered pulse count at constant rate is a sawtooth). The split's answer is judged by its
+    // fit of the denoised signal; the axis is bad only when both fit badly.
+    std::snprintf(note, sizeof note,
+                  "fit error is that of the denoised signal: the raw Allan curve misfits the split's model "
+                  "(rms_log10 %.3g, chi2/dof %.3g), as for non-white (sawtooth) quantization",
+                  a.final_error.rms_log10, a.final_error.chi2_dof);
+    a.notes.push_back(note);
+    a.final_error = fitErrorOf(den);
+  } else if (raw_bad && slow_counter) {
+    std::snprintf(note, sizeof note,
+                  "the raw Allan curve misfits the split's model and the output is a pulse count that changes too "
+                  "rarely for a sawtooth (mean count %.3g per sample): its rounding error is neither white nor a "
+                  "sawtooth, so Q and N cannot be separated on this record",
+                  qo.mean_count);
+    a.notes.push_back(note);
+  }
+}
+
+void AxisStages::answerWithFit(const FitResult& f) {
+  a_.coefficients = f.terms;
+  a_.final_model_var = f.model_var;
+  a_.final_error = fitErrorOf(f);
+}
+
+// The pulse-time N (pulseTimesN); Q the lattice's pulse weight as white quantization, q / sqrt(12) (the lattice is
+// refined by least squares over the whole record; its relative error is far below 1e-6, used as the interval).
+void AxisStages::answerWithPulseTimes() {
+  AxisAnalysis& a = a_;
+  a.coefficients = a.pulse_fit.terms;
+  a.coefficients[kAngleRandomWalk] = pulseTimesN(a.pulse_fit.terms[kAngleRandomWalk]);
+  const double qv = a.quantized.pulse_weight / std::sqrt(12.0);
+  Coefficient& cq = a.coefficients[kQuantization];
+  cq.value = qv;
+  cq.sigma = 1e-6 * qv;
+  cq.supported = true;
+  cq.lo68 = qv - cq.sigma, cq.hi68 = qv + cq.sigma, cq.lo95 = qv - 2 * cq.sigma, cq.hi95 = qv + 2 * cq.sigma;
+  FitResult shown = a.pulse_fit;
+  shown.terms[kQuantization] = cq;
+  for (size_t i = 0; i < a.oadev.points.size(); ++i) a.final_model_var[i] = modelVariance(shown, a.oadev.points[i].tau);
+  a.final_error = fitErrorOf(a.pulse_fit);
+  a.notes.push_back("pulse_times: " + a.pulse_times.message +
+                    "; fit error is that of the reconstructed angle's Allan curve; Q is the pulse weight / sqrt(12)");
+}
+
+void AxisStages::considerPulseTimes() {
+  AxisAnalysis& a = a_;
+  if (!a.has_pulse_times) return;
+  if (!a.pulse_times.ok) {
     a.notes.push_back("pulse_times not used: " + a.pulse_times.message);
-  } else if (a.has_pulse_times && a.pulse_fit.ok && pulse_n.supported && pulse_n.sigma > kPulseTimesMaxRelSigma * pulse_n.value) {
+    return;
+  }
+  MethodChoice pulse;
+  if (pulseTimesAnswers({a.method, a.method_reason}, a.final_error, a.pulse_fit, &pulse)) {
+    a.method = pulse.method;
+    a.method_reason = pulse.reason;
+    answerWithPulseTimes();
+    return;
+  }
+  const Coefficient n = pulseTimesN(a.pulse_fit.terms[kAngleRandomWalk]);
+  if (a.pulse_fit.ok && n.supported && n.sigma > kPulseTimesMaxRelSigma * n.value) {
     char buf[200];
     std::snprintf(buf, sizeof buf, "pulse_times not used: its N %.4g has a relative sigma of %.0f %% (> %.0f %%)",
-                  pulse_n.value, 100 * pulse_n.sigma / pulse_n.value, 100 * kPulseTimesMaxRelSigma);
+                  n.value, 100 * n.sigma / n.value, 100 * kPulseTimesMaxRelSigma);
     a.notes.push_back(buf);
   }
-  {
-    // Terms that trade (FitResult::correlation): say which, and how strongly, where one of them is only a bound.
-    const std::string trade = tradeNote(answerFit(a), a.coefficients);
-    if (!trade.empty()) a.notes.push_back(trade);
-  }
+}
+
+void AxisStages::judge() {
+  AxisAnalysis& a = a_;
+  // Terms that trade (FitResult::correlation): say which, and how strongly, where one of them is only a bound.
+  const std::string trade = tradeNote(answerFit(a), a.coefficients);
+  if (!trade.empty()) a.notes.push_back(trade);
   if (a.has_gmwm) gmwmCompare(&a.gmwm, a.oadev, a.fit.model_var, a.final_model_var);  // closed loop vs IEEE fits
   a.quality = assessQuality(a);
   if (unboundIntervalsIfBad(a.quality, &a.coefficients))
     a.notes.push_back("intervals unbounded: the fit is bad, no interval computed under its model can be trusted");
+}
+
+AxisAnalysis AxisStages::finish() {
+  if (!prepared_) throw std::logic_error("AxisStages::finish before prepare");
+  runGmwm();  // before the samples are freed
+  if (longest_ < segments_.size()) pulseTimes();
+  std::vector<std::vector<double>>().swap(segments_);  // the samples are not needed any more
+  noteStages();
+  const MethodChoice choice = chooseAllanMethod();
+  a_.method = choice.method;
+  a_.method_reason = choice.reason;
+  a_.final_model_var.resize(a_.oadev.points.size());
+  if (choice.method == Method::WaveletSplit) answerWithSplit();
+  else if (a_.has_check && !a_.check.effects.empty()) answerWithFit(a_.check.fit_after);
+  else answerWithFit(a_.fit);
+  considerPulseTimes();
+  judge();
   return std::move(a_);
 }
 
 const FitResult& answerFit(const AxisAnalysis& a) {
-  if (a.method == "wavelet_split") return a.split.longer_tau_from_input ? a.fit : a.split.denoised_fit;
-  if (a.method == "pulse_times") return a.pulse_fit;
+  if (a.method == Method::WaveletSplit) return a.split.longer_tau_from_input ? a.fit : a.split.denoised_fit;
+  if (a.method == Method::PulseTimes) return a.pulse_fit;
   if (a.has_check && !a.check.effects.empty()) return a.check.fit_after;
   return a.fit;
 }

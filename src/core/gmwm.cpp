@@ -1130,14 +1130,14 @@ GmwmAxis gmwmStage(const std::vector<double>& rate, double tau0, const GmwmOptio
 
 std::vector<GmwmKnownTerm> knownTermsFromEffects(const std::vector<DetectedEffect>& effects,
                                                  const std::vector<double>& extra_c,
-                                                 std::vector<std::string>* left_out) {
+                                                 std::vector<LeftOutEffect>* left_out) {
   std::vector<GmwmKnownTerm> out;
   for (size_t i = 0; i < effects.size(); ++i) {
     const DetectedEffect& e = effects[i];
     const double c = i < extra_c.size() ? extra_c[i] : 0.0;
     if (e.type == "sinusoid" || e.type == "narrowband") {
       if (!(c > 0) || !e.term.basis || e.spectrum_hz.empty() || e.spectrum_hz.size() != e.spectrum_weight.size()) {
-        if (left_out) left_out->push_back(e.type + ": no positive amplitude or spectral content from the model check");
+        if (left_out) left_out->push_back({e.type, "no positive amplitude or spectral content from the model check"});
         continue;
       }
       GmwmKnownTerm k;
@@ -1150,10 +1150,10 @@ std::vector<GmwmKnownTerm> knownTermsFromEffects(const std::vector<DetectedEffec
       for (const auto& p : e.parameters) k.parameters[p.first] = p.second.value;
       out.push_back(k);
     } else if (left_out) {
-      std::string why = ": not stationary, no wavelet-variance term; not in this model";
-      if (e.type == "gauss_markov") why = ": not a known term, the GMWM's own GM terms model it";
-      if (e.type == "short_correlation") why = ": not a known term, the GMWM's own MA(q) measurement noise models it";
-      left_out->push_back(e.type + why);
+      std::string why = "not stationary, no wavelet-variance term; not in this model";
+      if (e.type == "gauss_markov") why = "not a known term, the GMWM's own GM terms model it";
+      if (e.type == "short_correlation") why = "not a known term, the GMWM's own MA(q) measurement noise models it";
+      left_out->push_back({e.type, why});
     }
   }
   return out;
@@ -1249,11 +1249,10 @@ ReportedNoiseModel reportedNoiseModel(const GmwmAxis& g, double filter_rate_hz, 
              "oscillator state)";
     r.known_terms.push_back(t);
   }
-  for (const auto& e : g.effects_not_in_model) {  // "type: reason"
+  for (const auto& e : g.effects_not_in_model) {
     ReportedKnownTerm t;
-    const size_t colon = e.find(": ");
-    t.type = e.substr(0, colon);
-    t.note = colon == std::string::npos ? e : e.substr(colon + 2);
+    t.type = e.type;
+    t.note = e.reason;
     r.known_terms.push_back(t);
   }
   return r;

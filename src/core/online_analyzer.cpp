@@ -224,6 +224,9 @@ OnlineResult OnlineAnalyzer::run(OnlineJob&& job) {
   try {
     out.result = runPipeline(std::move(job.input), job.options, &out.new_samples);
     out.ok = true;
+  } catch (const NotAtRest& e) {
+    out.error = e.what();
+    out.not_at_rest = true;
   } catch (const std::exception& e) {
     out.error = e.what();
   }

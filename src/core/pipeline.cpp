@@ -74,7 +74,8 @@ void releaseFreed() {
 void noteStaticStretch(const PipelineResult& meta, AxisAnalysis* a) {
   if (!meta.rest_restricted) return;
   char buf[200];
-  std::snprintf(buf, sizeof buf, "%s, %.1f-%.1f s (the sensor moved outside it)", kStaticStretchNote,
+  a->static_stretch = true;
+  std::snprintf(buf, sizeof buf, "only the longest static stretch of the record was analysed, %.1f-%.1f s (the sensor moved outside it)",
                 meta.rest_from_s, meta.rest_to_s);
   a->notes.push_back(buf);
   a->quality = assessQuality(*a);
@@ -175,7 +176,7 @@ struct PipelineRun {
   std::vector<std::vector<double>> temperature_segments;
   // Gyro axes.
   std::vector<AxisAnalysis> results;
-  std::vector<std::vector<std::string>> axis_warnings;
+  std::vector<std::vector<Warning>> axis_warnings;
   std::vector<std::unique_ptr<AxisStages>> stages;
   std::vector<std::function<void()>> tasks;
   std::vector<std::vector<size_t>> deps;
@@ -294,7 +295,7 @@ struct PipelineRun {
     profileStage("sanitize");
     meta.stamps = ss.report;
     if (counted) *counted = ss.counted;
-    meta.warnings = ss.report.warnings();
+    for (const auto& w : ss.report.warnings()) meta.warnings.push_back({WarningKind::Stamps, w});
     if (ss.report.kept < 3 || !(ss.report.nominal_period_s > 0))
       throw std::invalid_argument("too few valid samples (" + std::to_string(ss.report.kept) + " of " +
                                   std::to_string(ss.report.input) + ")");
@@ -337,7 +338,7 @@ struct PipelineRun {
                         "analyses it anyway)",
                         meta.rest.reason.c_str(), 100 * meta.rest.moving_fraction, RestOptions().min_static_s,
                         static_cast<double>(st.end - st.begin) * tau0);
-          throw std::invalid_argument(buf);
+          throw NotAtRest(buf);
         }
         rest_t0 = ss.t[static_cast<size_t>(st.begin)];
         rest_t1 = ss.t[static_cast<size_t>(st.end - 1)];
@@ -350,7 +351,7 @@ struct PipelineRun {
                       "%.1f-%.1f s (%.1f s of %.1f s)",
                       meta.rest.reason.c_str(), 100 * meta.rest.moving_fraction, meta.rest_from_s, meta.rest_to_s,
                       meta.rest_to_s - meta.rest_from_s, ss.t.back() - ss.t.front());
-        meta.warnings.push_back(buf);
+        meta.warnings.push_back({WarningKind::Motion, buf});
       }
     }
   }
@@ -433,7 +434,7 @@ struct PipelineRun {
     ao = opt;
     ao.wavelet_split = false;
     ao.model_check = false;
-    ao.method = "joint_fit";
+    ao.method = Method::JointFit;
     ao.gmwm = false;  // GMWM (#16): gyro only
     if (accel_results.empty()) return;
     const size_t sanitize_task = tasks.size();
@@ -487,8 +488,9 @@ struct PipelineRun {
     for (size_t a = 0; a < results.size(); ++a) {
       // A gyro at rest reads Earth rate plus bias: hundreds of deg/s means wrong units or a moving sensor.
       if (opt.input == InputKind::Rate && std::fabs(results[a].mean) > 1.0)
-        axis_warnings[a].push_back("axis " + names[a] + ": mean rate " + std::to_string(results[a].mean) +
-                                   " rad/s is not a gyro at rest (wrong units or a moving sensor?)");
+        axis_warnings[a].push_back({WarningKind::MeanRate, "axis " + names[a] + ": mean rate " +
+                                                               std::to_string(results[a].mean) +
+                                                               " rad/s is not a gyro at rest (wrong units or a moving sensor?)"});
     }
     {
       const StampReport keep = ss.report;
@@ -497,18 +499,18 @@ struct PipelineRun {
     }
     for (const auto& w : axis_warnings) meta.warnings.insert(meta.warnings.end(), w.begin(), w.end());
     for (const auto& r : results)
-      if (r.spikes_checked && r.spikes.count > 0) meta.warnings.push_back(spikeWarning(r));
+      if (r.spikes_checked && r.spikes.count > 0) meta.warnings.push_back({WarningKind::Spikes, spikeWarning(r)});
     for (const auto& r : results)
-      if (r.quality.quality == Quality::Bad) meta.warnings.push_back(badFitWarning(r));
+      if (r.quality.quality == Quality::Bad) meta.warnings.push_back({WarningKind::BadFit, badFitWarning(r)});
     for (const auto& e : accel_errors)
       if (accel_error.empty() && !e.empty()) accel_error = e;
     if (!accel_error.empty()) {
       accel_results.clear();
       accel_means.clear();
-      meta.warnings.push_back("accelerometer not analysed: " + accel_error);
+      meta.warnings.push_back({WarningKind::Accelerometer, "accelerometer not analysed: " + accel_error});
     }
     for (const auto& r : accel_results)
-      if (r.quality.quality == Quality::Bad) meta.warnings.push_back(badFitWarning(r));
+      if (r.quality.quality == Quality::Bad) meta.warnings.push_back({WarningKind::BadFit, badFitWarning(r)});
     profileStage("analysis");
     meta.gyro = std::move(results);
     meta.accel = std::move(accel_results);
@@ -516,7 +518,7 @@ struct PipelineRun {
     meta.accel_note = accel_note;
     meta.accel_tau0 = meta.accel.empty() ? 0 : accel_tau0;
     if (!meta.accel.empty() && accelOwnStamps0)
-      for (const auto& w : sa.report.warnings()) meta.warnings.push_back("accelerometer: " + w);
+      for (const auto& w : sa.report.warnings()) meta.warnings.push_back({WarningKind::Accelerometer, "accelerometer: " + w});
   }
 };
 

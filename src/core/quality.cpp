@@ -11,7 +11,6 @@
 
 namespace gyro_allan {
 
-const char* const kStaticStretchNote = "only the longest static stretch of the record was analysed";
 
 const char* qualityName(Quality q) {
   switch (q) {
@@ -113,7 +112,7 @@ QualityVerdict assessQuality(const AxisAnalysis& a) {
   QualityContext ctx;
   ctx.samples = a.samples;
   ctx.spikes = a.spikes_checked ? a.spikes.count : 0;
-  for (const auto& n : a.notes) ctx.static_stretch = ctx.static_stretch || n.find(kStaticStretchNote) != std::string::npos;
+  ctx.static_stretch = a.static_stretch;
   const bool split_ok = a.has_split && a.split.ok;
   // The joint fit's N held against the split's answer is that of a joint fit that describes the curve: where the
   // plain joint fit misfits grossly (an undithered sawtooth, the reason auto chose the split) its N is ~10-20x the
@@ -123,9 +122,9 @@ QualityVerdict assessQuality(const AxisAnalysis& a) {
   // effects or its fit misfits too, so most sawtooth axes are not cross-checked; at 10 deg/h and 10-20 min the
   // check's fit is used.
   using quality_limits::notBad;
-  if (a.fit.ok && split_ok && a.method != "pulse_times") {  // pulse_times: neither method's N is the answer
+  if (a.fit.ok && split_ok && a.method != Method::PulseTimes) {  // pulse_times: neither method's N is the answer
     const Coefficient* joint_n = &a.fit.terms[kAngleRandomWalk];
-    if (a.method == "wavelet_split") {
+    if (a.method == Method::WaveletSplit) {
       if (a.has_check && !a.check.effects.empty() && a.check.fit_after.ok &&
           notBad(a.check.after.rms_log10, a.check.after.chi2_dof))
         joint_n = &a.check.fit_after.terms[kAngleRandomWalk];
@@ -143,10 +142,10 @@ QualityVerdict assessQuality(const AxisAnalysis& a) {
   }
   bool ok = a.fit.ok;
   std::string failure = a.fit.message;
-  if (a.method == "wavelet_split") {
+  if (a.method == Method::WaveletSplit) {
     ok = split_ok;
     failure = a.has_split ? a.split.message : "wavelet split not run";
-  } else if (a.method == "pulse_times") {
+  } else if (a.method == Method::PulseTimes) {
     ok = a.pulse_times.ok && a.pulse_fit.ok;
     failure = a.pulse_times.ok ? a.pulse_fit.message : a.pulse_times.message;
   }

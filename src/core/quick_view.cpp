@@ -106,7 +106,7 @@ QuickAnswer QuickView::curves() const {
   for (int i = 0; i < 3; ++i) {
     AxisAnalysis a;
     a.axis = names[i];
-    a.method = "quick_fit";
+    a.method = Method::QuickFit;
     a.oadev = engines_[static_cast<size_t>(i)]->curve();
     q.axes.push_back(std::move(a));
   }

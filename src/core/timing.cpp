@@ -134,18 +134,18 @@ ValueAnomalies detectValueAnomalies(const std::vector<double>& v, double min_rat
   return a;
 }
 
-std::vector<std::string> ValueAnomalies::warnings(const std::string& what) const {
-  std::vector<std::string> w;
+std::vector<Warning> ValueAnomalies::warnings(const std::string& what) const {
+  std::vector<Warning> w;
   char buf[200];
   if (spikes > 0) {
     std::snprintf(buf, sizeof buf, "%s: %lld impulsive samples (shocks) more than %.3g rad/s from the median",
                   what.c_str(), static_cast<long long>(spikes), threshold);
-    w.push_back(buf);
+    w.push_back({WarningKind::Shocks, buf});
   }
   if (saturation_runs > 0) {
     std::snprintf(buf, sizeof buf, "%s: %lld runs of identical extreme values (%lld samples): saturation?", what.c_str(),
                   static_cast<long long>(saturation_runs), static_cast<long long>(saturated));
-    w.push_back(buf);
+    w.push_back({WarningKind::Saturation, buf});
   }
   return w;
 }

@@ -566,7 +566,7 @@ Panel axisPanel(const AxisAnalysis& a, bool gyro) {
   const std::string sensor = gyro ? "gyro" : "accelerometer";
   const std::string name = !gyro && a.axis.rfind("accel_", 0) == 0 ? a.axis.substr(6) : a.axis;
   const Quality q = a.quality.quality;
-  p.title = sensor + " " + name + " (" + a.method + (q == Quality::Bad ? ", BAD FIT" : q == Quality::Doubtful ? ", doubtful" : "") + ")";
+  p.title = sensor + " " + name + " (" + methodName(a.method) + (q == Quality::Bad ? ", BAD FIT" : q == Quality::Doubtful ? ", doubtful" : "") + ")";
   p.alert = q == Quality::Bad;
   p.ylabel = gyro ? "Allan deviation [rad/s]" : "Allan deviation [m/s^{2}]";
   if (a.oadev.points.empty()) {

@@ -412,7 +412,7 @@ YAML::Node buildReport(const ReportMeta& meta, const std::vector<AxisAnalysis>& 
     n["rate_hz"] = num(a.rate_hz);
     n["duration_s"] = num(a.duration_s);
     n["mean"] = num(a.mean);
-    n["method"] = str(a.method);
+    n["method"] = str(methodName(a.method));
     n["method_reason"] = str(a.method_reason);
     n["coefficients"] = coefficientsNode(a.coefficients);
     n["fit"] = errorNode(a.final_error.rms_log10, a.final_error.chi2_dof);
@@ -526,7 +526,7 @@ std::string summaryTable(const std::vector<AxisAnalysis>& axes) {
     for (int t = 0; t < kNumTerms; ++t) o << std::setw(24) << fmtCoef(a.coefficients[static_cast<size_t>(t)], conventionalFactor(t));
     char buf[96];
     std::snprintf(buf, sizeof buf, "%-11.4f%-10.3g%-15s%s", a.final_error.rms_log10, a.final_error.chi2_dof,
-                  a.method.c_str(), a.quality.quality == Quality::Bad ? "BAD" : qualityName(a.quality.quality));
+                  methodName(a.method), a.quality.quality == Quality::Bad ? "BAD" : qualityName(a.quality.quality));
     o << buf << "\n";
   }
   o << "(value +- 1 sigma from the GLS covariance of the Allan-variance estimates; v (<b): not supported by the data "
@@ -582,7 +582,7 @@ YAML::Node accelerometerNode(const std::vector<AxisAnalysis>& axes, const std::v
     n["rate_hz"] = num(a.rate_hz);
     n["mean"] = num(i < means.size() ? means[i] : a.mean);
     n["mean_unit"] = str("m/s^2");
-    n["method"] = str(a.method);
+    n["method"] = str(methodName(a.method));
     YAML::Node c;
     for (int t = 0; t < kNumTerms; ++t) {
       static const char* keys[] = {"velocity_quantization", "velocity_random_walk", "bias_instability",
@@ -628,11 +628,15 @@ std::string accelSummaryTable(const std::vector<AxisAnalysis>& axes) {
 namespace {
 
 /// A method's name in words for the first screen.
-std::string methodWords(const std::string& m) {
-  if (m == "joint_fit") return "joint fit of the five terms";
-  if (m == "wavelet_split") return "wavelet split: quantization from the sym8 residue";
-  if (m == "pulse_times") return "fit of the pulse times";
-  return m;
+std::string methodWords(Method m) {
+  switch (m) {
+    case Method::JointFit: return "joint fit of the five terms";
+    case Method::WaveletSplit: return "wavelet split: quantization from the sym8 residue";
+    case Method::PulseTimes: return "fit of the pulse times";
+    case Method::Auto:
+    case Method::QuickFit: break;
+  }
+  return methodName(m);
 }
 
 /// One effect the model check added, in a few words.
@@ -756,7 +760,7 @@ void writeFileAtomic(const std::string& path, const std::string& content) {
 
 void setPipelineMeta(const PipelineResult& r, ReportMeta* meta) {
   meta->stamps = r.stamps;
-  meta->warnings = r.warnings;
+  meta->warnings = warningTexts(r.warnings);
   meta->rest_checked = r.rest_checked;
   meta->rest = r.rest;
   meta->rest_restricted = r.rest_restricted;

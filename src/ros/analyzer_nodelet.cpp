@@ -99,7 +99,7 @@ void AnalyzerNodelet::onInit() {
   // at once while the callback thread lags. Suspected, not reproduced, cause of that test's rare failure under load.
   temp_sub_ = nh.subscribe("temperature", q, &AnalyzerNodelet::temperatureCallback, this);
   NODELET_INFO("gyro_allan analyzer: input %s, window %g s, hop %g s, quick answers every %g s, method %s%s%s%s",
-               p_.input.c_str(), p_.online.window_s, p_.online.hop_s, p_.online.update_s, p_.method.c_str(),
+               p_.input.c_str(), p_.online.window_s, p_.online.hop_s, p_.online.update_s, methodName(p_.method),
                p_.online.pipeline.analysis.model_check ? " + model check" : "",
                p_.online.pipeline.rest_check ? " + at-rest check" : "",
                p_.online.pipeline.analysis.gmwm ? " + GMWM noise model" : "");
@@ -353,7 +353,7 @@ void AnalyzerNodelet::reconfigure(AnalyzerConfig& c, uint32_t) {
   }
   NODELET_INFO("gyro_allan analyzer: window %g s, hop %g s, method %s, wavelet split %s, model check %s, rest check %s, "
                "GMWM %s (filter rate %g Hz)",
-               p_.online.window_s, p_.online.hop_s, p_.method.c_str(), c.wavelet_split ? "on" : "off",
+               p_.online.window_s, p_.online.hop_s, methodName(p_.method), c.wavelet_split ? "on" : "off",
                c.model_check ? "on" : "off", c.rest_check ? "on" : "off", c.gmwm ? "on" : "off", c.filter_rate);
 }
 
@@ -372,6 +372,7 @@ DiagState AnalyzerNodelet::diagState() {
   if (have_result_) {
     s.last.ok = last_.ok;
     s.last.error = last_.error;
+    s.last.not_at_rest = last_.not_at_rest;
     s.last.result.stamps = last_.result.stamps;
     s.last.result.rest_checked = last_.result.rest_checked;
     s.last.result.rest = last_.result.rest;

@@ -112,7 +112,7 @@ AxisNoiseFit toAxisMsg(const AxisAnalysis& a) {
   m.axis = a.axis;
   m.fit_ok = a.fit.ok;
   m.message = a.fit.ok ? "" : a.fit.message;
-  m.method = a.method;
+  m.method = methodName(a.method);
   m.quantization = toMsg(a.coefficients[kQuantization]);
   m.angle_random_walk = toMsg(a.coefficients[kAngleRandomWalk]);
   m.bias_instability = toMsg(a.coefficients[kBiasInstability]);
@@ -146,9 +146,7 @@ AxisNoiseFit toAxisMsg(const AxisAnalysis& a) {
   } else if (a.has_check) {
     m.model_check_note = "model check failed: " + a.check.message;
   }
-  for (const std::string& n : a.notes)
-    if (n.find("model check") != std::string::npos)
-      m.model_check_note += (m.model_check_note.empty() ? "" : "; ") + n;
+  for (const std::string& n : a.check_notes) m.model_check_note += (m.model_check_note.empty() ? "" : "; ") + n;
   if (!a.has_check && m.model_check_note.empty()) m.model_check_note = "model check off (~model_check)";
   m.quality = qualityName(a.quality.quality);
   m.quality_reason = a.quality.reason;
@@ -201,12 +199,13 @@ AnalyzerParams loadAnalyzerParams(const ros::NodeHandle& pnh, std::vector<std::s
   r.get("confidence", &ao.deviation.confidence);
   if (!(ao.deviation.confidence > 0 && ao.deviation.confidence < 1))
     invalid("confidence", "must be in (0, 1)", "0.683"), ao.deviation.confidence = 0.683;
-  r.get("method", &p.method);
-  if (p.method != "auto" && p.method != "joint_fit" && p.method != "wavelet_split")
-    invalid("method", "must be auto, joint_fit or wavelet_split", "auto"), p.method = "auto";
+  std::string method = methodName(p.method);
+  r.get("method", &method);
+  if (!parseRequestedMethod(method, &p.method))
+    invalid("method", "must be auto, joint_fit or wavelet_split", "auto"), p.method = Method::Auto;
   ao.method = p.method;
   r.get("wavelet_split", &ao.wavelet_split);
-  if (p.method == "wavelet_split" && !ao.wavelet_split)
+  if (p.method == Method::WaveletSplit && !ao.wavelet_split)
     invalid("wavelet_split", "false contradicts method wavelet_split", "true"), ao.wavelet_split = true;
   r.get("model_check", &ao.model_check);
   r.get("gmwm", &ao.gmwm);
@@ -273,8 +272,8 @@ std::string applyConfig(AnalyzerConfig& c, AnalyzerParams* p) {
   n.online.window_s = c.window_s;
   n.online.hop_s = c.hop_s;
   n.online.update_s = c.update_s;
-  n.method = c.method;
-  n.online.pipeline.analysis.method = c.method;
+  if (!parseRequestedMethod(c.method, &n.method)) return "method must be auto, joint_fit or wavelet_split";
+  n.online.pipeline.analysis.method = n.method;
   n.online.pipeline.analysis.wavelet_split = c.wavelet_split;
   n.online.pipeline.analysis.model_check = c.model_check;
   if (c.filter_rate > 0) c.gmwm = true;  // a filter rate implies the GMWM stage (as analyze_bag --filter-rate)
@@ -283,8 +282,7 @@ std::string applyConfig(AnalyzerConfig& c, AnalyzerParams* p) {
   n.online.pipeline.rest_check = c.rest_check;
   n.rms_log10_warn = c.rms_log10_warn;
   n.rms_log10_error = c.rms_log10_error;
-  if (n.method != "auto" && n.method != "joint_fit" && n.method != "wavelet_split") return "method must be auto, joint_fit or wavelet_split";
-  if (n.method == "wavelet_split" && !c.wavelet_split) return "method wavelet_split needs wavelet_split";
+  if (n.method == Method::WaveletSplit && !c.wavelet_split) return "method wavelet_split needs wavelet_split";
   if (!(n.rms_log10_warn > 0) || n.rms_log10_error < n.rms_log10_warn) return "rms_log10_warn/error must be 0 < warn <= error";
   if (!(n.filter_rate >= 0) || n.filter_rate > 1e6) return "filter_rate must be in [0, 1e6] Hz";
   try {
@@ -301,7 +299,7 @@ AnalyzerConfig toConfig(const AnalyzerParams& p) {
   c.window_s = p.online.window_s;
   c.hop_s = p.online.hop_s;
   c.update_s = p.online.update_s;
-  c.method = p.method;
+  c.method = methodName(p.method);
   c.wavelet_split = p.online.pipeline.analysis.wavelet_split;
   c.model_check = p.online.pipeline.analysis.model_check;
   c.gmwm = p.online.pipeline.analysis.gmwm;
@@ -325,7 +323,7 @@ NoiseReport toNoiseReport(const OnlineResult& r, const AnalyzerParams& p, const 
   NoiseReport m;
   m.header.stamp = fromNs(r.last_ns);
   m.header.frame_id = frame_id;
-  m.method = p.method;
+  m.method = methodName(p.method);
   m.deviation = "oadev";
   m.window_start = fromNs(r.first_ns);
   m.window_end = fromNs(r.last_ns);
@@ -338,7 +336,7 @@ NoiseReport toNoiseReport(const OnlineResult& r, const AnalyzerParams& p, const 
   m.fill = m.rate_hz > 0 ? std::min(1.0, static_cast<double>(m.samples) / (p.online.window_s * m.rate_hz)) : 0;
   m.at_rest_checked = pr.rest_checked;
   m.at_rest = !pr.rest_checked || pr.rest.at_rest;
-  m.warnings = pr.warnings;
+  m.warnings = warningTexts(pr.warnings);
   for (const AxisAnalysis& a : pr.gyro) m.axes.push_back(toAxisMsg(a));
   return m;
 }
@@ -438,7 +436,7 @@ sensor_msgs::Image plotMessage(const std::vector<AxisAnalysis>& axes, const std_
 }
 
 std::string reportMethod(const AnalyzerParams& p) {
-  return p.online.pipeline.analysis.gmwm && p.method == "auto" ? "gmwm" : p.method;
+  return p.online.pipeline.analysis.gmwm && p.method == Method::Auto ? "gmwm" : methodName(p.method);
 }
 
 ReportMeta liveReportMeta(const AnalyzerParams& p, const std::string& topic) {
@@ -509,10 +507,9 @@ void diagValues(const DiagState& s, const AnalyzerParams& p, RecentProblems* rp,
   if (s.have_result && s.last.ok) {
     for (const AxisAnalysis& a : s.last.result.gyro)
       if (a.spikes_checked) stat.add("spikes removed in window, axis " + a.axis, a.spikes.count);
-    for (const std::string& w : s.last.result.warnings)
-      if (w.find("saturat") != std::string::npos || w.find("spike") != std::string::npos) {
-        stat.mergeSummary(diagnostic_msgs::DiagnosticStatus::WARN, w);
-      }
+    for (const Warning& w : s.last.result.warnings)
+      if (w.kind == WarningKind::Saturation || w.kind == WarningKind::Spikes)
+        stat.mergeSummary(diagnostic_msgs::DiagnosticStatus::WARN, w.text);
   }
 }
 
@@ -549,7 +546,7 @@ void diagParams(const DiagState& s, diagnostic_updater::DiagnosticStatusWrapper&
 
 void diagMotion(const DiagState& s, diagnostic_updater::DiagnosticStatusWrapper& stat) {
   if (!s.have_result || !s.last.ok) {
-    if (s.have_result && s.last.error.find("not at rest") != std::string::npos)
+    if (s.have_result && s.last.not_at_rest)
       stat.summary(diagnostic_msgs::DiagnosticStatus::WARN, s.last.error);
     else stat.summary(diagnostic_msgs::DiagnosticStatus::OK, "no analysis yet");
     return;
@@ -602,7 +599,7 @@ void diagNoiseModel(const DiagState& s, const AnalyzerParams& p, diagnostic_upda
         stat.add(gm + " sigma (rad/s)", a.continuous.gauss_markov[k].sigma.value);
         stat.add(gm + " correlation time (s)", a.continuous.gauss_markov[k].correlation_time.value);
       }
-      if (a.model.find("RW") != std::string::npos)
+      if (parseGmwmModel(a.model).random_walk)
         stat.add("rate random walk " + a.axis + " (rad/s/sqrt(s))", a.continuous.rate_random_walk.value);
     } else {
       failed += (failed.empty() ? "" : ", ") + a.axis;

@@ -27,7 +27,7 @@ struct AnalyzerParams {
   std::string input = "auto";      ///< imu | angle | auto (the first topic that delivers)
   std::string angle_mode = "accumulated";
   std::string tau_grid = "log:10";
-  std::string method = "auto";
+  Method method = Method::Auto;
   double filter_rate = 0;          ///< ~noise_model / noise_model.yaml: Phi/Qd also at this rate [Hz]; 0 = data rate only
                                    ///< (> 0 turns the GMWM stage on: online.pipeline.analysis.gmwm)
   double spike_z = 10;             ///< 0 = keep spikes

@@ -353,12 +353,10 @@ int run(const Args& args, std::vector<AxisAnalysis>* gyro_out = nullptr,
   opt.angle_increments = angle_input && args.angle_mode == "increment";
   // GMWM (#16): --method gmwm = auto's coefficients plus the GMWM stage; --filter-rate implies it.
   opt.gmwm = args.method == "gmwm" || args.filter_rate > 0;
-  const std::string method = args.method == "gmwm" ? "auto" : args.method;
-  if (method != "auto" && method != "joint_fit" && method != "wavelet_split")
+  if (!parseRequestedMethod(args.method == "gmwm" ? "auto" : args.method, &opt.method))
     throw UsageError("--method must be auto, joint_fit, wavelet_split or gmwm");
-  if (args.method == "wavelet_split" && !args.wavelet_split)
+  if (opt.method == Method::WaveletSplit && !args.wavelet_split)
     throw UsageError("--method wavelet_split contradicts --no-wavelet-split");
-  opt.method = method;
   opt.wavelet_split = args.wavelet_split;
   opt.model_check = args.model_check;
   opt.remove_spikes = !args.keep_spikes;
@@ -657,7 +655,7 @@ int runBatch(const Args& args) {
           if (!c.supported) unsupported += std::string(unsupported.empty() ? "" : " ") + noiseTermKey(t);
         }
         std::snprintf(buf, sizeof buf, ",%.4f", a.final_error.rms_log10);
-        csv << ',' << unsupported << buf << ',' << a.method << ',' << qualityName(a.quality.quality) << ",\n";
+        csv << ',' << unsupported << buf << ',' << methodName(a.method) << ',' << qualityName(a.quality.quality) << ",\n";
       }
     };
     rows(gyro, "gyro");

@@ -13,6 +13,7 @@
 #include "gyro_allan/model_check.hpp"
 #include "gyro_allan/noise_model.hpp"
 #include "gyro_allan/simulate.hpp"
+#include "kit.hpp"
 
 using namespace gyro_allan;
 
@@ -56,12 +57,6 @@ AxisResult analyze(const std::vector<double>& rate, double tau0, const ModelChec
   return r;
 }
 
-std::string argValue(int argc, char** argv, const char* name, const std::string& def) {
-  for (int i = 2; i + 1 < argc; ++i)
-    if (std::strcmp(argv[i], name) == 0) return argv[i + 1];
-  return def;
-}
-
 std::string effectLine(const DetectedEffect& e) {
   std::string s = e.type + " (dBIC " + std::to_string(static_cast<int>(std::lround(e.delta_bic))) + "):";
   for (const auto& kv : e.parameters) {
@@ -74,9 +69,9 @@ std::string effectLine(const DetectedEffect& e) {
 
 int runAdis(int argc, char** argv) {
   const char* env = std::getenv("GYRO_ALLAN_SHARED_DATA");
-  const std::string data = argValue(argc, argv, "--data", env ? std::string(env) + "/adis16405" : "../shared/data/adis16405");
-  const std::string out = argValue(argc, argv, "--out", ".");
-  const std::string runs = argValue(argc, argv, "--runs", "1,2,3");
+  const std::string data = study::optionValue(argc, argv, "--data", env ? std::string(env, 2) + "/adis16405" : "../shared/data/adis16405", 2);
+  const std::string out = study::optionValue(argc, argv, "--out", ".", 2);
+  const std::string runs = study::optionValue(argc, argv, "--runs", "1,2,3", 2);
   const double tau0 = 0.01;
   ModelCheckOptions mo;
   FILE* curves = std::fopen((out + "/adis_model_check.csv").c_str(), "w");
@@ -136,9 +131,9 @@ int runAdis(int argc, char** argv) {
 }
 
 int runControls(int argc, char** argv) {
-  const int seeds = std::atoi(argValue(argc, argv, "--seeds", "100").c_str());
-  const double rate = std::atof(argValue(argc, argv, "--rate", "100").c_str());
-  const double duration = std::atof(argValue(argc, argv, "--duration", "3600").c_str());
+  const int seeds = std::atoi(study::optionValue(argc, argv, "--seeds", "100", 2).c_str());
+  const double rate = std::atof(study::optionValue(argc, argv, "--rate", "100", 2).c_str());
+  const double duration = std::atof(study::optionValue(argc, argv, "--duration", "3600", 2).c_str());
   if (seeds < 1 || !(rate > 0) || !(duration > 0)) throw std::invalid_argument("controls: bad --seeds/--rate/--duration");
   struct Mix {
     const char* name;
@@ -156,7 +151,7 @@ int runControls(int argc, char** argv) {
   mixes[2].name = "N+K strong random walk";
   mixes[2].a.angle_random_walk = 1e-4;
   mixes[2].a.rate_random_walk = 3e-6;
-  const int only = std::atoi(argValue(argc, argv, "--mix", "0").c_str());  // 1..3: one mix only
+  const int only = std::atoi(study::optionValue(argc, argv, "--mix", "0", 2).c_str());  // 1..3: one mix only
   ModelCheckOptions mo;
   int total = 0, total_fp = 0;
   for (size_t mi = 0; mi < mixes.size(); ++mi) {

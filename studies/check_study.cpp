@@ -23,12 +23,13 @@
 #include "gyro_allan/model_check.hpp"
 #include "gyro_allan/noise_model.hpp"
 #include "gyro_allan/simulate.hpp"
+#include "kit.hpp"
 
 using namespace gyro_allan;
 
 namespace {
 
-constexpr double kDeg = M_PI / 180.0;
+using namespace study;  // kDeg, optionValue, parseSeeds (kit.hpp)
 
 struct Class {
   std::string name;
@@ -170,12 +171,6 @@ std::vector<Class> classes() {
   return c;
 }
 
-std::string argValue(int argc, char** argv, const char* name, const std::string& def) {
-  for (int i = 1; i + 1 < argc; ++i)
-    if (std::strcmp(argv[i], name) == 0) return argv[i + 1];
-  return def;
-}
-
 std::string csvSafe(std::string s) {
   for (auto& ch : s)
     if (ch == '"' || ch == '\n') ch = '\'';
@@ -213,20 +208,19 @@ bool checkArguments(int argc, char** argv) {
 int main(int argc, char** argv) {
   if (!checkArguments(argc, argv)) return 1;
   try {
-    const std::string seeds = argValue(argc, argv, "--seeds", "1-30");
-    const size_t dash = seeds.find('-');
-    const int s0 = std::atoi(seeds.substr(0, dash).c_str());
-    const int s1 = dash == std::string::npos ? s0 : std::atoi(seeds.substr(dash + 1).c_str());
-    const std::string only = "," + argValue(argc, argv, "--class", "") + ",";
-    const std::string csv_path = argValue(argc, argv, "--csv", "");
+    const std::string seeds = optionValue(argc, argv, "--seeds", "1-30");
+    const SeedRange seed_range = parseSeeds(seeds);
+    const int s0 = seed_range.first, s1 = seed_range.last;
+    const std::string only = "," + optionValue(argc, argv, "--class", "") + ",";
+    const std::string csv_path = optionValue(argc, argv, "--csv", "");
     ModelCheckOptions mo;
-    mo.min_rms_gain = std::atof(argValue(argc, argv, "--min-rms-gain", std::to_string(mo.min_rms_gain)).c_str());
-    mo.min_amplitude_z = std::atof(argValue(argc, argv, "--min-amplitude-z", std::to_string(mo.min_amplitude_z)).c_str());
+    mo.min_rms_gain = std::atof(optionValue(argc, argv, "--min-rms-gain", std::to_string(mo.min_rms_gain)).c_str());
+    mo.min_amplitude_z = std::atof(optionValue(argc, argv, "--min-amplitude-z", std::to_string(mo.min_amplitude_z)).c_str());
     mo.max_nonlinear_rel_sigma =
-        std::atof(argValue(argc, argv, "--max-nonlinear-rel-sigma", std::to_string(mo.max_nonlinear_rel_sigma)).c_str());
-    mo.bic_margin = std::atof(argValue(argc, argv, "--bic-margin", std::to_string(mo.bic_margin)).c_str());
+        std::atof(optionValue(argc, argv, "--max-nonlinear-rel-sigma", std::to_string(mo.max_nonlinear_rel_sigma)).c_str());
+    mo.bic_margin = std::atof(optionValue(argc, argv, "--bic-margin", std::to_string(mo.bic_margin)).c_str());
     mo.bic_margin_stochastic =
-        std::atof(argValue(argc, argv, "--bic-margin-stochastic", std::to_string(mo.bic_margin_stochastic)).c_str());
+        std::atof(optionValue(argc, argv, "--bic-margin-stochastic", std::to_string(mo.bic_margin_stochastic)).c_str());
     std::printf("# min_rms_gain %.4g, min_amplitude_z %.3g, max_nonlinear_rel_sigma %.3g, bic_margin %.3g, "
                 "bic_margin_stochastic %.3g\n",
                 mo.min_rms_gain, mo.min_amplitude_z, mo.max_nonlinear_rel_sigma, mo.bic_margin,

@@ -91,7 +91,8 @@
 #include <vector>
 
 #include "gyro_allan/analysis.hpp"
-#include "gyro_allan/information_bound.hpp"
+#include "information_bound.hpp"
+#include "kit.hpp"
 #include "gyro_allan/noise_model.hpp"
 #include "gyro_allan/simulate.hpp"
 #include "gyro_allan/stats.hpp"
@@ -100,12 +101,7 @@ using namespace gyro_allan;
 
 namespace {
 
-constexpr double kDeg = M_PI / 180.0;
-constexpr double kArcsec = kDeg / 3600.0;
-constexpr double kDegPerSqrtH = kDeg / 60.0;          // deg/sqrt(h) -> rad/sqrt(s)
-constexpr double kDegPerH = kDeg / 3600.0;            // deg/h -> rad/s
-constexpr double kDegPerHSqrtH = kDeg / 3600.0 / 60.0;  // deg/h/sqrt(h) -> rad/s/sqrt(s)
-constexpr double kDegPerH2 = kDeg / 3600.0 / 3600.0;   // deg/h^2 -> rad/s^2
+using namespace study;  // units, parsing (kit.hpp)
 const char* const kTermShort[kNumTerms] = {"Q", "N", "B", "K", "R"};
 
 struct Class {
@@ -358,29 +354,6 @@ void printSeenRow(const std::string& name, const Seen& s) {
               frac(s.good50, s.n).c_str(), s.out68);
 }
 
-std::vector<std::string> splitList(const std::string& s) {
-  std::vector<std::string> out;
-  size_t p = 0;
-  while (p <= s.size()) {
-    const size_t q = s.find(',', p);
-    const std::string item = s.substr(p, q == std::string::npos ? std::string::npos : q - p);
-    if (!item.empty()) out.push_back(item);
-    if (q == std::string::npos) break;
-    p = q + 1;
-  }
-  return out;
-}
-
-/// A finite number > 0 (>= 0 with allow_zero), else invalid_argument naming `what`.
-double parseNumber(const std::string& s, const std::string& what, bool allow_zero) {
-  char* end = nullptr;
-  const double v = std::strtod(s.c_str(), &end);
-  if (s.empty() || *end != '\0' || !std::isfinite(v) || !(allow_zero ? v >= 0 : v > 0))
-    throw std::invalid_argument(what + (allow_zero ? ": not a non-negative number: '" : ": not a positive number: '") +
-                                s + "'");
-  return v;
-}
-
 /// A class from "--define NAME:key=value,..." (conventional units, as in the table at the top of this file).
 Class defineClass(const std::string& spec) {
   const size_t colon = spec.find(':');
@@ -534,7 +507,9 @@ int main(int argc, char** argv) {
       else if (a == "--max-samples") max_samples = parsePositive(next(), "--max-samples");
       else if (a == "--threads") threads = static_cast<int>(parsePositive(next(), "--threads"));
       else if (a == "--csv") csv_path = next();
-      else if (a == "--method") opt.method = next();
+      else if (a == "--method") {
+        if (!parseRequestedMethod(next(), &opt.method)) throw std::invalid_argument("--method: auto, joint_fit or wavelet_split");
+      }
       else if (a == "--tau-grid") {
         std::string err;
         if (!parseTauGrid(next(), &opt.deviation.grid, &err)) throw std::invalid_argument("--tau-grid: " + err);
@@ -556,8 +531,6 @@ int main(int argc, char** argv) {
         throw std::invalid_argument("unknown argument '" + a + "'");
       }
     }
-    if (opt.method != "auto" && opt.method != "joint_fit" && opt.method != "wavelet_split")
-      throw std::invalid_argument("--method: auto, joint_fit or wavelet_split");
     if (duration_override > 0 && !durations.empty())
       throw std::invalid_argument("--duration and --durations exclude each other");
 
@@ -580,20 +553,9 @@ int main(int argc, char** argv) {
       return 0;
     }
 
-    int s0 = 0, s1 = 0;
-    {
-      const size_t dash = seeds.find('-');
-      const std::string a = seeds.substr(0, dash), b = dash == std::string::npos ? a : seeds.substr(dash + 1);
-      auto digits = [](const std::string& x) {
-        return !x.empty() && x.size() < 10 &&
-               std::all_of(x.begin(), x.end(), [](char ch) { return ch >= '0' && ch <= '9'; });
-      };
-      if (!digits(a) || !digits(b)) throw std::invalid_argument("--seeds: A-B or A (non-negative integers)");
-      s0 = std::atoi(a.c_str());
-      s1 = std::atoi(b.c_str());
-      if (s1 < s0) throw std::invalid_argument("--seeds: A-B with A <= B");
-    }
-    const char* set = s1 <= 999 ? "tuning set" : (s0 >= 1001 ? "validation set" : "MIXED tuning and validation seeds");
+    const SeedRange seed_range = parseSeeds(seeds);
+    const int s0 = seed_range.first, s1 = seed_range.last;
+    const char* set = seedSet(seed_range);
 
     std::vector<std::string> wanted = splitList(only);
     for (const auto& w : wanted)
@@ -638,7 +600,7 @@ int main(int argc, char** argv) {
     std::printf("# coverage_study: seeds %d-%d (%s), %zu class runs x %d seeds = %zu axis-runs, %d thread(s)\n", s0,
                 s1, set, jobs.size(), s1 - s0 + 1, runs.size(), threads);
     std::printf("# analyzeAxis: method %s, tau grid %s, wavelet split %s, model check %s, spikes removed %s\n",
-                opt.method.c_str(), tauGridName(opt.deviation.grid).c_str(), opt.wavelet_split ? "on" : "off",
+                methodName(opt.method), tauGridName(opt.deviation.grid).c_str(), opt.wavelet_split ? "on" : "off",
                 opt.model_check ? "on" : "off", opt.remove_spikes ? "yes" : "no");
     std::fflush(stdout);
 
@@ -658,7 +620,7 @@ int main(int argc, char** argv) {
           seg[0] = simulateAxis(j.k.a, j.rate_hz, n, r.sim_seed, 0);
           const AxisAnalysis a = analyzeAxis("x", seg, 1.0 / j.rate_hz, opt);
           r.c = a.coefficients;
-          r.method = a.method;
+          r.method = methodName(a.method);
           r.quality = qualityName(a.quality.quality);
           r.rms_log10 = a.final_error.rms_log10;
           r.chi2_dof = a.final_error.chi2_dof;

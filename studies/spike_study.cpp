@@ -17,6 +17,7 @@
 #include "gyro_allan/model_check.hpp"
 #include "gyro_allan/simulate.hpp"
 #include "gyro_allan/spikes.hpp"
+#include "kit.hpp"
 
 using namespace gyro_allan;
 
@@ -86,9 +87,7 @@ FitResult jointFit(const std::vector<double>& x, double tau0) {
 }
 
 int arg(int argc, char** argv, const char* name, int def) {
-  for (int i = 1; i + 1 < argc; ++i)
-    if (!std::strcmp(argv[i], name)) return std::atoi(argv[i + 1]);
-  return def;
+  return study::parseInt(study::optionValue(argc, argv, name, std::to_string(def)), name);
 }
 
 }  // namespace

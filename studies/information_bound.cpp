@@ -1,5 +1,5 @@
 // The exact Gaussian likelihood of a record's differenced block means and its Cramér–Rao bound on the model ADEV.
-#include "gyro_allan/information_bound.hpp"
+#include "information_bound.hpp"
 
 #include <cmath>
 #include <limits>

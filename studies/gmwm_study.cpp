@@ -138,7 +138,7 @@ int runAdis(const std::string& dir, bool verbose, int sims, bool known, const st
         for (size_t k = 0; k < a.check.effects.size() && k < a.check.fit_after.extra_c.size(); ++k)
           std::printf(" %s %.4g", a.check.effects[k].type.c_str(), std::sqrt(a.check.fit_after.extra_c[k] / 2));
         std::printf(")");
-        for (const auto& e : g.effects_not_in_model) std::printf(" [%s]", e.c_str());
+        for (const auto& e : g.effects_not_in_model) std::printf(" [%s: %s]", e.type.c_str(), e.reason.c_str());
         std::printf("\n");
       } else {
         g = gmwmStage(rate, 0.01);

@@ -40,12 +40,13 @@
 #include "gyro_allan/noise_model.hpp"
 #include "gyro_allan/simulate.hpp"
 #include "gyro_allan/spectral.hpp"
+#include "kit.hpp"
 
 using namespace gyro_allan;
 
 namespace {
 
-constexpr double kDeg = M_PI / 180.0;
+using study::kDeg;
 
 struct Class {
   std::string name;
@@ -176,7 +177,14 @@ int main(int argc, char** argv) {
       return argv[++i];
     };
     if (a == "--seeds") {
-      if (std::sscanf(next(), "%d-%d", &s0, &s1) != 2 || s0 < 1 || s1 < s0) {
+      try {
+        const study::SeedRange r = study::parseSeeds(next());
+        s0 = r.first, s1 = r.last;
+      } catch (const std::invalid_argument& e) {
+        std::fprintf(stderr, "line_study: %s\n", e.what());
+        return 2;
+      }
+      if (s0 < 1) {
         std::fprintf(stderr, "line_study: --seeds wants A-B with 1 <= A <= B\n");
         return 2;
       }

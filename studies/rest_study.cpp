@@ -21,16 +21,17 @@
 #include "gyro_allan/rest.hpp"
 #include "gyro_allan/simulate.hpp"
 #include "gyro_allan/stats.hpp"
+#include "kit.hpp"
 
 namespace rest_study {
 
 using namespace gyro_allan;
 
-constexpr double kDeg = M_PI / 180.0;
+using study::kDeg;
 constexpr double kG = 9.80665;
-constexpr double kDegSqrtH = kDeg / 60.0;           // deg/sqrt(h) -> rad/sqrt(s)
-constexpr double kDegH = kDeg / 3600.0;             // deg/h -> rad/s
-constexpr double kDegHSqrtH = kDeg / 3600.0 / 60.0;  // deg/h/sqrt(h) -> rad/s/sqrt(s)
+constexpr double kDegSqrtH = study::kDegPerSqrtH;
+constexpr double kDegH = study::kDegPerH;
+constexpr double kDegHSqrtH = study::kDegPerHSqrtH;
 
 /// A record: 3 gyro axes [rad/s], 3 accel axes [m/s^2] (or none), as segments.
 struct Record {
@@ -432,9 +433,9 @@ double upper95(int k, int n) {
 
 void usage() {
   std::fprintf(stderr,
-               "usage: rest_study [--seeds A:B] [--jobs J] [--data DIR] [--set static|moving|real|all]\n"
+               "usage: rest_study [--seeds A-B] [--jobs J] [--data DIR] [--set static|moving|real|all]\n"
                "                  [--block-z Z] [--record-ratio R] [--gyro-floor F] [--accel-floor F] [--verbose]\n"
-               "  tuning seeds 1:40, validation seeds 1001:1040 (docs/rest_detection.md)\n");
+               "  tuning seeds 1-40, validation seeds 1001-1040 (docs/rest_detection.md)\n");
 }
 
 }  // namespace
@@ -455,7 +456,13 @@ int main(int argc, char** argv) {
     };
     if (a == "--seeds") {
       const std::string s = v();
-      if (std::sscanf(s.c_str(), "%d:%d", &s0, &s1) != 2) return usage(), 2;
+      try {
+        const study::SeedRange r = study::parseSeeds(s);
+        s0 = r.first, s1 = r.last;
+      } catch (const std::invalid_argument& e) {
+        std::fprintf(stderr, "rest_study: %s\n", e.what());
+        return usage(), 2;
+      }
     } else if (a == "--jobs") jobs = std::atoi(v().c_str());
     else if (a == "--data") data = v();
     else if (a == "--set") set = v();
@@ -467,7 +474,7 @@ int main(int argc, char** argv) {
     else return usage(), 2;
   }
   const int ns = s1 - s0 + 1;
-  std::printf("rest_study: seeds %d:%d, block %g s, block_z %g, record_ratio %g, window %d, floors %g rad/s %g m/s^2, "
+  std::printf("rest_study: seeds %d-%d, block %g s, block_z %g, record_ratio %g, window %d, floors %g rad/s %g m/s^2, "
               "max rest rate %g rad/s\n\n",
               s0, s1, opts.block_s, opts.block_z, opts.record_ratio, opts.window_blocks, opts.gyro_floor,
               opts.accel_floor, opts.max_rest_rate);
