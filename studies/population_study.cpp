@@ -1,7 +1,7 @@
 // Accuracy and interval calibration of the reported noise model on a random population of simulated gyros.
 //
 //   population_study [--seeds A-B] [--threads N] [--csv FILE] [--fit-only] [--max-samples N] [--misses N]
-//                    [--min-cell N] [--curves-out FILE | --curves-in FILE]
+//                    [--min-cell N] [--curves-out FILE | --curves-in FILE] [--working-independence]
 //
 // One seed is one sensor axis drawn from broad priors (no fixed classes):
 //   rate          log-uniform 100 Hz - 1 kHz;  record length log-uniform 20 min - 6 h
@@ -10,7 +10,7 @@
 //                 (log-uniform from 1 s to 3x the record: from dominating most of the curve to below the data)
 //   Q             present with probability 1/3 (a dithered angle quantizer), crossing the white noise at a tau
 //                 log-uniform from 1 to 10 sample intervals
-// Seeds 1-99999 are the tuning range, 100001- the validation range; the two never overlap.
+// Seeds 1-999 are the tuning range, 1001- the validation range (kit.hpp); a run in both is refused.
 //
 // Per axis the whole analyzeAxis runs as analyze_bag runs it (--fit-only: without the wavelet split and the model
 // check), and beside it the plain weighted least-squares baseline of the same oadev curve (fitNoiseModel,
@@ -26,6 +26,8 @@
 // (simulate --seed is not needed: rerun this program with --seeds S-S).
 // --curves-out saves each axis's oadev curve; --curves-in fits saved curves again without simulating them (the joint
 // fit of --fit-only, which is what the estimator decides; the Allan curve itself costs ~95 % of a run).
+// --working-independence: the joint fit estimates with diagonal weights and sandwich intervals
+// (FitOptions::working_independence) instead of the GLS, for the comparison in docs/fit.md.
 #include <algorithm>
 #include <atomic>
 #include <cmath>
@@ -45,14 +47,14 @@
 #include "gyro_allan/noise_model.hpp"
 #include "gyro_allan/simulate.hpp"
 #include "gyro_allan/stats.hpp"
+#include "kit.hpp"
 
 using namespace gyro_allan;
 
 namespace {
 
-constexpr double kDegPerSqrtH = M_PI / 180.0 / 60.0;  // deg/sqrt(h) -> rad/sqrt(s)
+using study::kDegPerSqrtH;
 const char* const kTermShort[kNumTerms] = {"Q", "N", "B", "K", "R"};
-constexpr uint64_t kValidationStart = 100001;
 
 struct Sensor {
   double rate_hz = 100, duration_s = 3600;
@@ -253,7 +255,8 @@ bool readCurve(FILE* f, uint64_t* seed, DeviationCurve* c) {
 
 [[noreturn]] void usage(const char* msg) {
   std::fprintf(stderr, "population_study: %s\nusage: population_study [--seeds A-B] [--threads N] [--csv FILE] "
-                       "[--fit-only] [--max-samples N] [--misses N] [--min-cell N]\n", msg);
+                       "[--fit-only] [--max-samples N] [--misses N] [--min-cell N] [--curves-out F | --curves-in F] "
+                       "[--working-independence]\n", msg);
   std::exit(2);
 }
 
@@ -263,44 +266,32 @@ int main(int argc, char** argv) {
   uint64_t first = 1, last = 200;
   int threads = 2, misses = 20, min_cell = 30;
   double max_samples = 4e7;
-  bool fit_only = false, gls = false;
-  std::string csv, curves_out, curves_in;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto value = [&]() -> std::string {
-      if (i + 1 >= argc) usage(("missing value after " + a).c_str());
-      return argv[++i];
-    };
-    if (a == "--seeds") {
-      const std::string v = value();
-      if (std::sscanf(v.c_str(), "%lu-%lu", &first, &last) != 2 || first < 1 || last < first)
-        usage("--seeds: A-B with 1 <= A <= B expected");
-    } else if (a == "--threads") {
-      threads = std::max(1, std::atoi(value().c_str()));
-    } else if (a == "--csv") {
-      csv = value();
-    } else if (a == "--gls") {
-      gls = true;
-    } else if (a == "--fit-only") {
-      fit_only = true;
-    } else if (a == "--max-samples") {
-      max_samples = std::atof(value().c_str());
-    } else if (a == "--misses") {
-      misses = std::atoi(value().c_str());
-    } else if (a == "--curves-out") {
-      curves_out = value();
-    } else if (a == "--curves-in") {
-      curves_in = value();
-    } else if (a == "--min-cell") {
-      min_cell = std::atoi(value().c_str());
-    } else {
-      usage(("unknown argument " + a).c_str());
+  bool fit_only = false, gls = true;
+  std::string csv, curves_out, curves_in, set;
+  try {
+    for (study::Args a(argc, argv); a.next();) {
+      if (a.is("--seeds")) {
+        const study::SeedRange r = study::parseSeeds(a.value());
+        first = static_cast<uint64_t>(std::max(1, r.first)), last = static_cast<uint64_t>(std::max(1, r.last));
+        set = study::seedSet(r);
+      } else if (a.is("--threads")) threads = std::max(1, a.integer());
+      else if (a.is("--csv")) csv = a.value();
+      else if (a.is("--fit-only")) fit_only = true;
+      else if (a.is("--working-independence")) gls = false;
+      else if (a.is("--max-samples")) max_samples = a.number();
+      else if (a.is("--misses")) misses = a.integer();
+      else if (a.is("--min-cell")) min_cell = a.integer();
+      else if (a.is("--curves-out")) curves_out = a.value();
+      else if (a.is("--curves-in")) curves_in = a.value();
+      else a.unknown();
     }
+  } catch (const std::invalid_argument& e) {
+    usage(e.what());
   }
-  if ((first < kValidationStart) != (last < kValidationStart))
-    usage("--seeds mixes the tuning range (1-99999) and the validation range (100001-)");
-  std::printf("# population_study: seeds %lu-%lu (%s range), %s\n", static_cast<unsigned long>(first),
-              static_cast<unsigned long>(last), first >= kValidationStart ? "validation" : "tuning",
+  if (set.empty()) set = study::seedSet(study::SeedRange{static_cast<int>(first), static_cast<int>(last)});
+  if (set.find("set") == std::string::npos) usage(set.c_str());
+  std::printf("# population_study: seeds %lu-%lu (%s), %s%s\n", static_cast<unsigned long>(first),
+              static_cast<unsigned long>(last), set.c_str(), gls ? "" : "working-independence fit, ",
               fit_only ? "joint fit only (no wavelet split, no model check)" : "the whole analyzeAxis");
   std::vector<Run> runs(static_cast<size_t>(last - first + 1));
   std::vector<DeviationCurve> curves(runs.size());
@@ -343,7 +334,7 @@ int main(int argc, char** argv) {
           if (fit_only) opt.wavelet_split = false, opt.model_check = false;
           const AxisAnalysis an = analyzeAxis("x", seg, 1.0 / rate, opt);
           r.c = an.coefficients;
-          r.method = an.method;
+          r.method = methodName(an.method);
           r.quality = qualityName(an.quality.quality);
           oadev = an.oadev;
           if (an.has_check)
