@@ -277,8 +277,8 @@ struct GlsFit {
     for (int k = 0; k < ncol; ++k)
       if (c[k] > 0) pos.push_back(k);
     const double chi2 = (w.b - w.A * c).squaredNorm();
-    Eigen::VectorXd best;
-    const double chi2_min = solveNnls(w, all, &best);  // evidence is relative to the best full-covariance fit
+    Eigen::VectorXd best;  // evidence is relative to the best full-covariance fit (the GLS fit itself)
+    const double chi2_min = options.working_independence ? solveNnls(w, all, &best) : chi2;
     r.dof = std::max(1, n - static_cast<int>(pos.size()));
     r.chi2 = chi2;
     r.chi2_dof = chi2 / r.dof;
@@ -410,8 +410,15 @@ struct GlsFit {
 
   // The correlation of the IEEE terms' free estimates at the fit (every enabled term free, the estimate's own
   // weights, the points' full covariance at the fit): how B, K and R trade.
-  void correlation() {
+  void correlation(const Whitened& w) {
     const int m = static_cast<int>(ieee_cols.size());
+    if (!options.working_independence) {  // the GLS's own inverse information is its sandwich
+      Eigen::VectorXd est;
+      Eigen::MatrixXd cov;
+      solveFree(w, ieee_cols, &est, &cov);
+      store(cov);
+      return;
+    }
     std::vector<Eigen::VectorXd> g(static_cast<size_t>(m));
     for (int k = 0; k < m; ++k) g[static_cast<size_t>(k)] = weightsOf(ieee_cols, k);
     for (const auto& gk : g)
@@ -420,6 +427,10 @@ struct GlsFit {
     Eigen::MatrixXd cov(m, m);
     for (int i = 0; i < m; ++i)
       for (int j = 0; j < m; ++j) cov(i, j) = g[static_cast<size_t>(i)].dot(sigma * g[static_cast<size_t>(j)]);
+    store(cov);
+  }
+
+  void store(const Eigen::MatrixXd& cov) {
     for (size_t i = 0; i < ieee_cols.size(); ++i)
       for (size_t j = 0; j < ieee_cols.size(); ++j) {
         const double d = std::sqrt(cov(static_cast<int>(i), static_cast<int>(i)) * cov(static_cast<int>(j), static_cast<int>(j)));
@@ -479,9 +490,9 @@ FitResult fitNoiseModelGls(const DeviationCurve& curve, const FitOptions& option
   }
   g.statistics(w);
   g.r.intervals = options.intervals;
-  g.fit_llt.compute(working);
+  if (options.intervals || options.working_independence) g.fit_llt.compute(working);
   g.coefficients(we);
-  g.correlation();
+  g.correlation(we);
   g.modelCurve();
   g.r.ok = true;
   return g.r;
