@@ -33,9 +33,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <cstring>
 #include <map>
-#include <mutex>
 #include <random>
 #include <stdexcept>
 #include <string>
