@@ -13,4 +13,5 @@ set +u
 source .build/devel/setup.bash
 set -u
 cd .build
-ctest --output-on-failure -j"${JOBS:-2}" --timeout 900
+# three at a time on two cores: the rostests mostly wait on real-time publishing, a third slot keeps the cores busy
+ctest --output-on-failure -j"${TEST_JOBS:-3}" --timeout 900

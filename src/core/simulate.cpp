@@ -93,6 +93,7 @@ std::vector<double> flickerNoise(int64_t n, double b, uint64_t seed) {
   size_t m = 1;
   while (m < 2 * static_cast<size_t>(n)) m <<= 1;
   std::vector<std::complex<double>> hf, wf;
+  Eigen::FFT<double> fft;  // one object: its plan (twiddles) for size m serves all three transforms
   {
     std::vector<double> h(m, 0.0), w(m, 0.0);
     const double alpha = 1.0;
@@ -100,13 +101,11 @@ std::vector<double> flickerNoise(int64_t n, double b, uint64_t seed) {
     for (int64_t k = 1; k < n; ++k) h[k] = h[k - 1] * (alpha / 2.0 + static_cast<double>(k) - 1.0) / k;
     Rng rng(mixSeed(seed, 7));
     for (int64_t k = 0; k < n; ++k) w[k] = b * rng.normal();
-    Eigen::FFT<double> fft;
     fft.fwd(hf, h);
     fft.fwd(wf, w);
   }
   for (size_t k = 0; k < hf.size(); ++k) hf[k] *= wf[k];
   std::vector<double> conv;
-  Eigen::FFT<double> fft;
   fft.inv(conv, hf);
   for (int64_t k = 0; k < n; ++k) out[k] = conv[k];
   return out;
