@@ -125,6 +125,7 @@ struct Run {
   Sensor s;
   bool ok = false;
   std::string error, method, quality, effects;
+  std::string effect_detail;  ///< per kept effect: BIC gain and evidence; the plain fit's residual verdict
   std::array<Coefficient, kNumTerms> c, base;
   double worst = NAN, base_worst = NAN;
 };
@@ -336,7 +337,13 @@ int main(int argc, char** argv) {
           r.quality = qualityName(an.quality.quality);
           oadev = an.oadev;
           if (an.has_check)
-            for (const auto& e : an.check.effects) r.effects += (r.effects.empty() ? "" : "+") + e.type;
+            for (const auto& e : an.check.effects) {
+              r.effects += (r.effects.empty() ? "" : "+") + e.type;
+              char buf[96];
+              std::snprintf(buf, sizeof buf, "    %s: BIC gain %.1f, plain fit's residual p %.3g; ", e.type.c_str(),
+                            e.delta_bic, an.check.residual_before.p_value);
+              r.effect_detail += buf + e.evidence + "\n";
+            }
           if (!curves_out.empty()) curves[i] = oadev, have_curve[i] = true;
         }
         r.worst = worstError(r.c, r.s);
@@ -427,12 +434,13 @@ int main(int argc, char** argv) {
     for (int k = 0; k < misses && k < static_cast<int>(order.size()); ++k) {
       const Run& r = *order[static_cast<size_t>(k)];
       if (!(r.worst > r.base_worst)) break;
-      std::printf("seed %lu  %s %s %s  %.0f Hz %.0f s  %s%s%s %s  worst %.3f base %.3f  Q %.3g N %.3g B %.3g K %.3g R %.3g\n",
+      std::printf("seed %lu  %s %s %s  %.9g Hz %.9g s  %s%s%s %s  worst %.3f base %.3f  Q %.9g N %.9g B %.9g K %.9g R %.9g\n",
                   static_cast<unsigned long>(r.seed), r.s.grade.c_str(), r.s.length.c_str(), r.s.dominant.c_str(),
                   r.s.rate_hz, r.s.duration_s, r.method.c_str(), r.effects.empty() ? "" : "+", r.effects.c_str(),
                   r.quality.c_str(), r.worst, r.base_worst,
                   r.s.a.quantization, r.s.a.angle_random_walk, r.s.a.bias_instability, r.s.a.rate_random_walk,
                   std::fabs(r.s.a.rate_ramp));
+      std::printf("%s", r.effect_detail.c_str());
     }
   }
   return 0;

@@ -122,6 +122,9 @@ struct ModelCheckOptions {
   double acf_min_z = 5.0;           ///< lag-1 correlation in units of 1/sqrt(n)
   double thermal_min_z = 5.0;       ///< rate-vs-temperature slope in sigmas
   double warmup_min_z = 8.0;        ///< warm-up amplitude in (white-residual) sigmas
+  /// Gauss-Markov and narrowband candidates only when the plain fit's residual on the measured curve is structured
+  /// (ResidualAnalysis::structured at structured_alpha); false: off (studies and tests).
+  bool stochastic_needs_structure = true;
   double outlier_min_z = 10.0;      ///< robust sigmas from the local median
   bool search_sinusoid = true, search_gauss_markov = true, search_bias_step = true, search_thermal = true,
        search_outliers = true;

@@ -1175,13 +1175,29 @@ void addOutlierCandidate(const CheckInput& in, std::vector<Candidate>* cands) {
 
 // Every candidate effect the raw samples give evidence for, in the order the searches are enabled; sf: the record's
 // spectral features when already computed.
-std::vector<Candidate> collectCandidates(const CheckInput& in, const SpectralFeatures* sf) {
+// A stochastic term (Gauss-Markov, narrowband) adds variance the IEEE terms can trade for on the Allan curve, so its
+// only evidence there is a curve the plain model does not describe: it is a candidate only when the plain fit's
+// residual on the measured curve (mc->residual_before) is structured (the calibrated test at structured_alpha).
+std::vector<Candidate> collectCandidates(const CheckInput& in, const SpectralFeatures* sf, ModelCheck* mc) {
+  std::vector<Candidate> found;
+  if (in.opts.search_sinusoid && in.n >= 256) addSpectralCandidates(in, sf ? *sf : spectralFeatures(in), &found);
+  if (in.opts.search_gauss_markov) addGaussMarkovCandidates(in, &found);
+  if (in.opts.search_bias_step) addBiasStepCandidate(in, &found);
+  if (in.opts.search_thermal) addThermalCandidates(in, &found);
+  if (in.opts.search_outliers) addOutlierCandidate(in, &found);
+  const ResidualAnalysis& plain = mc->residual_before;  // the measured curve's, before any line was taken out
   std::vector<Candidate> cands;
-  if (in.opts.search_sinusoid && in.n >= 256) addSpectralCandidates(in, sf ? *sf : spectralFeatures(in), &cands);
-  if (in.opts.search_gauss_markov) addGaussMarkovCandidates(in, &cands);
-  if (in.opts.search_bias_step) addBiasStepCandidate(in, &cands);
-  if (in.opts.search_thermal) addThermalCandidates(in, &cands);
-  if (in.opts.search_outliers) addOutlierCandidate(in, &cands);
+  for (Candidate& c : found) {
+    const bool stochastic = c.nature == Nature::GaussMarkov || c.nature == Nature::Narrowband;
+    if (stochastic && in.opts.stochastic_needs_structure && !plain.structured) {
+      mc->rejected.push_back(c.type + ": the plain fit describes the Allan curve (residual p " +
+                             fmt("%.2g", plain.p_value) + ", structured below " +
+                             fmt("%.2g", in.opts.structured_alpha) + "); a stochastic term needs a curve it does not (" +
+                             c.evidence + ")");
+      continue;
+    }
+    cands.push_back(std::move(c));
+  }
   return cands;
 }
 
@@ -1580,7 +1596,7 @@ DeviationCurve oadevLike(const DeviationCurve& curve, const std::vector<double>&
 // result in mc (effects, after, fit_after, residual_after). sf: the record's spectral features when already computed.
 void traceEffects(const CheckInput& in, const Model& base, const std::vector<bool>& rms_mask, ModelCheck* mc,
                   const SpectralFeatures* sf) {
-  std::vector<Candidate> cands = collectCandidates(in, sf);
+  std::vector<Candidate> cands = collectCandidates(in, sf, mc);
   Selection sel;
   sel.current = base;
   forwardSelect(in, rms_mask, &cands, &sel, mc);
