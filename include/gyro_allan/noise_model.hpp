@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "gyro_allan/allan.hpp"
+#include "gyro_allan/stats.hpp"
 
 namespace gyro_allan {
 
@@ -51,7 +52,7 @@ struct Coefficient {
 /// z is k68 for the 68 % interval and k95 for the 95 % one (normal by default; Student t's when c_sigma is itself
 /// estimated from few degrees of freedom).
 Coefficient coefficientFromSquare(double c, double c_sigma, double z_support = 2.0, double k68 = 1.0,
-                                  double k95 = 1.959963984540054);
+                                  double k95 = kZ95);
 
 /// An additional Allan-variance term c * basis(tau), c >= 0 fitted jointly with the IEEE terms (used by the model
 /// check: sinusoid, Gauss-Markov, bias step...). The reported Coefficient is sqrt(c) with its sigma.

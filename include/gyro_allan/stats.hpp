@@ -1,11 +1,19 @@
-// Order statistics and a one-dimensional maximizer shared by the core and the tools: the median in O(n), in the two
-// even-count conventions in use, and the golden-section search.
+// Order statistics, the normal quantiles and a one-dimensional maximizer shared by the core and the tools: the median
+// in O(n), in the two even-count conventions in use, the standard normal quantile and the golden-section search.
 #pragma once
 
 #include <cmath>
 #include <vector>
 
 namespace gyro_allan {
+
+/// Standard normal quantile: the z with P(Z <= z) = p (Boost.Math), and the values the intervals and robust scales
+/// use, named here once.
+double normalQuantile(double p);
+constexpr double kZ95 = 1.959963984540054;             ///< normalQuantile(0.975): two-sided 95 % half-width
+constexpr double kZ95OneSided = 1.6448536269514722;    ///< normalQuantile(0.95): one-sided 95 % bound
+constexpr double kP68Upper = 0.8413447460685429;       ///< P(Z <= 1): upper end of the 68.3 % interval
+constexpr double kMadPerSigma = 0.6744897501960817;    ///< normalQuantile(0.75): a normal's median |x - median| / sigma
 
 /// Median of v: the middle value for odd n, the mean of the two middle values for even n; NaN when v is empty.
 /// Reorders v (a selection in O(n), leaving v as std::nth_element would): pass a scratch copy when the order matters.

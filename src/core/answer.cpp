@@ -109,7 +109,7 @@ Coefficient pulseTimesN(const Coefficient& n) {
   Coefficient c = n;
   c.sigma = std::hypot(c.sigma, kPulseTimesSystematic * c.value);
   c.lo68 = std::max(0.0, c.value - c.sigma), c.hi68 = c.value + c.sigma;
-  c.lo95 = std::max(0.0, c.value - 1.96 * c.sigma), c.hi95 = c.value + 1.96 * c.sigma;
+  c.lo95 = std::max(0.0, c.value - kZ95 * c.sigma), c.hi95 = c.value + kZ95 * c.sigma;
   return c;
 }
 

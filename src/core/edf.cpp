@@ -7,18 +7,15 @@
 #include <unordered_map>
 
 #include <boost/math/distributions/chi_squared.hpp>
-#include <boost/math/distributions/normal.hpp>
 
 #include "allan_internal.hpp"
 #include "gyro_allan/allan.hpp"
+#include "gyro_allan/stats.hpp"
 
 namespace gyro_allan {
 
 // ------------------------------------------------------------------------------------------------ chi-squared
 namespace {
-
-/// Standard normal quantile (Boost.Math).
-double normalQuantile(double p) { return boost::math::quantile(boost::math::normal_distribution<double>(), p); }
 
 /// Memo of chi2Quantile per thread: the fits re-fill confidence intervals of the same points (same EDF) dozens of
 /// times.

@@ -1031,7 +1031,7 @@ void addBiasStepCandidate(const CheckInput& in, std::vector<Candidate>* cands) {
   // Location uncertainty of a step in white noise: about (sigma_sample / size)^2 samples.
   std::vector<double> d(std::min<int64_t>(n - 1, 200000));
   for (size_t i = 0; i < d.size(); ++i) d[i] = std::fabs(rate[i + 1] - rate[i]);
-  const double s_sample = upperMedianInPlace(d) / 0.6745 / std::sqrt(2.0);
+  const double s_sample = upperMedianInPlace(d) / kMadPerSigma / std::sqrt(2.0);
   const double ts = best.index * tau0;
   const double ts_sigma = tau0 * std::max(1.0, (s_sample / best.size) * (s_sample / best.size));
   Candidate c;
@@ -1636,8 +1636,8 @@ void addLines(const CheckInput& in, const std::vector<SpectralLine>& lines,
     co.supported = true;
     co.lo68 = std::max(0.0, A - l.amplitude_sigma);
     co.hi68 = A + l.amplitude_sigma;
-    co.lo95 = std::max(0.0, A - 1.959963984540054 * l.amplitude_sigma);
-    co.hi95 = A + 1.959963984540054 * l.amplitude_sigma;
+    co.lo95 = std::max(0.0, A - kZ95 * l.amplitude_sigma);
+    co.hi95 = A + kZ95 * l.amplitude_sigma;
     for (size_t i = 0; i < mc->tau.size(); ++i) {
       const double add = A * A * e.term.basis(mc->tau[i]);
       if (i < mc->fit_after.model_var.size()) mc->fit_after.model_var[i] += add;

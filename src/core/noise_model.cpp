@@ -450,11 +450,11 @@ Coefficient coefficientFrom(double cval, double cvar, double inflate, bool suppo
   if (supported) {
     co.lo68 = std::sqrt(std::max(0.0, cval - sc));
     co.hi68 = std::sqrt(cval + sc);
-    co.lo95 = std::sqrt(std::max(0.0, cval - 1.959964 * sc));
-    co.hi95 = std::sqrt(cval + 1.959964 * sc);
+    co.lo95 = std::sqrt(std::max(0.0, cval - kZ95 * sc));
+    co.hi95 = std::sqrt(cval + kZ95 * sc);
   } else {
     co.hi68 = std::sqrt(std::max(0.0, std::max(0.0, cval) + 0.4758 * sc));  // one-sided 68.3 %: z = 0.4758
-    co.hi95 = std::sqrt(std::max(0.0, std::max(0.0, cval) + 1.644854 * sc));
+    co.hi95 = std::sqrt(std::max(0.0, std::max(0.0, cval) + kZ95OneSided * sc));
   }
   return co;
 }

@@ -330,7 +330,6 @@ struct GlsFit {
   // flag never changes the value, so the reported coefficients are the model curve.
   void coefficients(const Whitened& w) {
     sd0.assign(static_cast<size_t>(ncol), 0.0);
-    constexpr double kZ95 = 1.959963984540054;
     auto longTau = [&](int k) {
       const int t = P.term[static_cast<size_t>(k)];
       return t == kBiasInstability || t == kRateRandomWalk || t == kRateRamp;

@@ -565,7 +565,7 @@ MeanShift detectMeanShift(const std::vector<double>& x, int64_t block, double z_
   for (int64_t i = 0; i + 1 < nb; ++i) d[i] = bm[i + 1] - bm[i];
   const double med = median(d);
   for (int64_t i = 0; i + 1 < nb; ++i) ad[i] = std::fabs(d[i] - med);
-  const double scale = median(ad) / 0.6745;
+  const double scale = median(ad) / kMadPerSigma;
   if (!(scale > 0)) return out;
   // A step inside block b splits between differences b-1 and b: score each block boundary region by the larger of
   // the single difference and the two-difference sum scaled by sqrt(2)... use the sum of neighbours' excess.
@@ -684,7 +684,7 @@ Outliers detectOutliers(const std::vector<double>& x, double tau0, double z_min,
     std::vector<double> ad;
     ad.reserve(static_cast<size_t>(n / step + 1));
     for (int64_t i = 0; i < n; i += step) ad.push_back(std::fabs(devAt(i)));
-    out.robust_sigma = medianInPlace(ad) / 0.6745;
+    out.robust_sigma = medianInPlace(ad) / kMadPerSigma;
   }
   if (!(out.robust_sigma > 0)) return out;
   const double limit = z_min * out.robust_sigma;

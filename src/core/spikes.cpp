@@ -53,7 +53,7 @@ double scaleFromAbsDev(std::vector<double>& ad) {
   const double mad = medianInPlace(ad);
   const size_t k95 = static_cast<size_t>(std::floor(0.95 * static_cast<double>(ad.size() - 1)));
   std::nth_element(ad.begin(), ad.begin() + static_cast<long>(k95), ad.end());
-  const double s = std::max(mad / 0.6745, ad[k95] / 1.96);
+  const double s = std::max(mad / kMadPerSigma, ad[k95] / kZ95);
   if (s > 0) return s;
   double smallest = 0;
   for (double a : ad)
@@ -108,7 +108,7 @@ bool classifyRun(const View& v, int64_t s, int64_t e, const Rule& r, std::vector
   // whatever sigma each estimated).
   if (r.restore_noise) {
     for (double& y : w) y = std::fabs(y - *replacement);
-    *noise = medianInPlace(w) / 0.6745;
+    *noise = medianInPlace(w) / kMadPerSigma;
   } else {
     *noise = 0;
   }

@@ -1,10 +1,15 @@
-// Order statistics (include/gyro_allan/stats.hpp): the median and the upper median by selection.
+// Order statistics and the normal quantile (include/gyro_allan/stats.hpp): the median and the upper median by
+// selection.
 #include "gyro_allan/stats.hpp"
+
+#include <boost/math/distributions/normal.hpp>
 
 #include <algorithm>
 #include <cmath>
 
 namespace gyro_allan {
+
+double normalQuantile(double p) { return boost::math::quantile(boost::math::normal_distribution<double>(), p); }
 
 namespace {
 

@@ -112,7 +112,7 @@ double wnoisest(const std::vector<double>& d) {
   if (d.empty()) throw std::invalid_argument("wnoisest: empty coefficient vector");
   std::vector<double> a(d.size());
   for (size_t i = 0; i < d.size(); ++i) a[i] = std::fabs(d[i]);
-  return medianInPlace(a) / 0.6745;
+  return medianInPlace(a) / 0.6745;  // the reference tools' rounded kMadPerSigma, so thresholds match theirs
 }
 
 WdenResult wden(const std::vector<double>& x, const WdenOptions& options) {

@@ -746,7 +746,7 @@ void sawtoothBootstrap(double tau0, int64_t n, const WaveletSplitOptions& option
 Coefficient fromSquare(double c, double c_sigma, double sigma_dof) {
   if (!(sigma_dof > 0)) return coefficientFromSquare(c, c_sigma);
   const boost::math::students_t t(sigma_dof);
-  return coefficientFromSquare(c, c_sigma, 2.0, boost::math::quantile(t, 0.841344746068543),
+  return coefficientFromSquare(c, c_sigma, 2.0, boost::math::quantile(t, kP68Upper),
                                boost::math::quantile(t, 0.975));
 }
 
