@@ -39,6 +39,9 @@ int countParams(const FitResult& f) {
 // How an extra term behaves: deterministic effects (sinusoid, step, warm-up, temperature-driven drift, impulses)
 // add an exactly known amount to the AVAR estimate and no estimation noise of their own; stochastic ones do.
 enum class Nature { Deterministic, GaussMarkov, Narrowband, Correction };
+// Stochastic effects: they trade variance with B and K on the Allan curve (their own BIC margin; candidates only
+// where the plain fit's residual is structured).
+bool isStochastic(Nature n) { return n == Nature::GaussMarkov || n == Nature::Narrowband; }
 struct TermInfo {
   Nature nature = Nature::Deterministic;
   double tc = 0;         // Gauss-Markov correlation time
@@ -1188,8 +1191,7 @@ std::vector<Candidate> collectCandidates(const CheckInput& in, const SpectralFea
   const ResidualAnalysis& plain = mc->residual_before;  // the measured curve's, before any line was taken out
   std::vector<Candidate> cands;
   for (Candidate& c : found) {
-    const bool stochastic = c.nature == Nature::GaussMarkov || c.nature == Nature::Narrowband;
-    if (stochastic && in.opts.stochastic_needs_structure && !plain.structured) {
+    if (isStochastic(c.nature) && in.opts.stochastic_needs_structure && !plain.structured) {
       mc->rejected.push_back(c.type + ": the plain fit describes the Allan curve (residual p " +
                              fmt("%.2g", plain.p_value) + ", structured below " +
                              fmt("%.2g", in.opts.structured_alpha) + "); a stochastic term needs a curve it does not (" +
@@ -1335,8 +1337,7 @@ bool admitBest(const CheckInput& in, const std::vector<bool>& rms_mask, std::vec
     const Trial& best = sc.trial;
     c.used = true;
     const double gain = sel->current.bic - best.model.bic;
-    const bool stochastic = c.nature == Nature::GaussMarkov || c.nature == Nature::Narrowband;
-    const double margin = stochastic ? opts.bic_margin_stochastic : opts.bic_margin;
+    const double margin = isStochastic(c.nature) ? opts.bic_margin_stochastic : opts.bic_margin;
     if (gain < margin) {
       mc->rejected.push_back(c.type + ": BIC improves by only " + fmt("%.1f", gain) + " (< " + fmt("%.0f", margin) +
                              "; " + c.evidence + ")");
